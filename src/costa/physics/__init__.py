@@ -1,0 +1,30 @@
+"""The aluminum cell model as a composition of named, replaceable parts."""
+
+from .cell import CellVariables
+from .model import BALANCES, BalanceTerm, CellModel, ablated_model, model_from_config, true_model
+from .parameters import (
+    CellParameters,
+    MaterialProperties,
+    authors_code_parameters,
+    paper_printed_parameters,
+    parameters_from_config,
+)
+from .parts import PART_ORDER, Part, constant_part
+
+__all__ = [
+    "BALANCES",
+    "PART_ORDER",
+    "BalanceTerm",
+    "CellModel",
+    "CellParameters",
+    "CellVariables",
+    "MaterialProperties",
+    "Part",
+    "ablated_model",
+    "authors_code_parameters",
+    "constant_part",
+    "model_from_config",
+    "paper_printed_parameters",
+    "parameters_from_config",
+    "true_model",
+]

@@ -1,0 +1,210 @@
+"""The cell model: its parts assembled into eight balances.
+
+Balances (paper numbering, q = the quantities computed by the parts, see
+:mod:`costa.physics.parts`):
+
+- ledge mass      dx1/dt = w
+- Al2O3 mass      dx2/dt = u1 - r_Al2O3
+- AlF3 mass       dx3/dt = u3 - r_AlF3
+- cryolite mass   dx4/dt = -w + r_cry
+- metal mass      dx5/dt = r_Al - u4
+- bath energy     dx6/dt = alpha/m (P_el - Q_bath_ledge + Q_bath_freeze)
+- ledge energy    dx7/dt = beta/x1 (Q_front_ledge - Q_ledge_wall + Q_ledge_freeze)
+- wall energy     dx8/dt = k17 (Q_ledge_wall - Q_wall_ambient)
+
+Extra :class:`BalanceTerm` s add flows in physical units to any balance: kg/s to a
+mass balance, W to an energy balance.  This is how hidden effects are made and how
+discovered corrections are put back.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from .cell import Array, CellVariables
+from .parameters import CellParameters, authors_code_parameters, parameters_from_config
+from .parts import (
+    PART_ORDER,
+    Part,
+    PartFunction,
+    authors_code_parts,
+    constant_part,
+    paper_printed_parts,
+)
+
+__all__ = [
+    "BALANCES",
+    "BalanceTerm",
+    "CellModel",
+    "ablated_model",
+    "model_from_config",
+    "true_model",
+]
+
+#: balance name -> (state it drives, unit of the flows it adds up)
+BALANCES: dict[str, tuple[str, str]] = {
+    "ledge_mass": ("x1", "kg/s"),
+    "alumina_mass": ("x2", "kg/s"),
+    "alf3_mass": ("x3", "kg/s"),
+    "cryolite_mass": ("x4", "kg/s"),
+    "metal_mass": ("x5", "kg/s"),
+    "bath_energy": ("x6", "W"),
+    "ledge_energy": ("x7", "W"),
+    "wall_energy": ("x8", "W"),
+}
+
+
+@dataclass(frozen=True)
+class BalanceTerm:
+    """A flow added to one or more balances: ``targets[balance] * fn(...)``.
+
+    ``unit`` must be that of every target balance ("kg/s" or "W"); a flow that
+    moves mass from one balance to another has two targets of opposite sign.
+    """
+
+    name: str
+    formula: str
+    unit: str
+    targets: Mapping[str, float]
+    fn: PartFunction
+
+    def __post_init__(self):
+        for balance in self.targets:
+            if balance not in BALANCES:
+                raise ValueError(f"term {self.name!r}: unknown balance {balance!r}; known: {list(BALANCES)}")
+            if BALANCES[balance][1] != self.unit:
+                raise ValueError(
+                    f"term {self.name!r} is in {self.unit} but balance {balance!r} adds up {BALANCES[balance][1]}"
+                )
+
+
+@dataclass(frozen=True)
+class CellModel:
+    """A cell model: constants, one :class:`Part` per quantity, extra balance terms."""
+
+    name: str
+    params: CellParameters
+    parts: Mapping[str, Part]
+    terms: tuple[BalanceTerm, ...] = field(default_factory=tuple)
+
+    def __post_init__(self):
+        if tuple(self.parts) != PART_ORDER:
+            raise ValueError(f"model {self.name!r}: parts must be exactly {PART_ORDER} in order")
+
+    # ----------------------------------------------------------- evaluation
+    def _quantities(self, v: CellVariables) -> dict[str, Array]:
+        q: dict[str, Array] = {}
+        for name, part in self.parts.items():
+            q[name] = part(v, self.params, q)
+        return q
+
+    def _flows(self, v: CellVariables, q: Mapping[str, Array]) -> dict[str, Array]:
+        flows = {
+            "ledge_mass": q["freezing_rate"],
+            "alumina_mass": v.u1 - q["alumina_consumption"],
+            "alf3_mass": v.u3 - q["alf3_neutralisation"],
+            "cryolite_mass": -q["freezing_rate"] + q["cryolite_formation"],
+            "metal_mass": q["metal_production"] - v.u4,
+            "bath_energy": q["electric_power"] - q["bath_ledge_heat"] + q["bath_freezing_heat"],
+            "ledge_energy": q["front_ledge_heat"] - q["ledge_wall_heat"] + q["ledge_freezing_heat"],
+            "wall_energy": q["ledge_wall_heat"] - q["wall_ambient_heat"],
+        }
+        for term in self.terms:
+            value = term.fn(v, self.params, q)
+            for balance, coefficient in term.targets.items():
+                flows[balance] = flows[balance] + coefficient * value
+        return flows
+
+    def quantities(self, x: Array, u: Array) -> dict[str, Array]:
+        """Every part's value at states x (..., 8) and inputs u (..., 5)."""
+        return self._quantities(CellVariables(x, u))
+
+    def balance_flows(self, x: Array, u: Array) -> dict[str, Array]:
+        """The net flow into each balance, in kg/s or W (before heat capacities)."""
+        v = CellVariables(x, u)
+        return self._flows(v, self._quantities(v))
+
+    def rhs(self, x: Array, u: Array) -> Array:
+        """dx/dt (..., 8) in kg/s and degC/s."""
+        v = CellVariables(x, u)
+        f = self._flows(v, self._quantities(v))
+        k = self.params
+        rates = [f[b] for b in ("ledge_mass", "alumina_mass", "alf3_mass", "cryolite_mass", "metal_mass")]
+        rates += [
+            k.alpha / v.m * f["bath_energy"],
+            k.beta / v.x1 * f["ledge_energy"],
+            k.k17 * f["wall_energy"],
+        ]
+        return v.xp.stack(rates, axis=-1)
+
+    def state_rate_per_flow(self, x: Array, u: Array) -> Array:
+        """d(dx_i/dt)/d(flow into balance i) (..., 8): 1 for masses, alpha/m, beta/x1, k17."""
+        v = CellVariables(x, u)
+        one = v.xp.ones_like(v.x1)
+        k = self.params
+        return v.xp.stack([one] * 5 + [k.alpha / v.m, k.beta / v.x1, k.k17 * one], axis=-1)
+
+    # ------------------------------------------------------------- variants
+    def with_part(self, name: str, part: Part, model_name: str | None = None) -> CellModel:
+        """This model with one part replaced."""
+        if name not in self.parts:
+            raise ValueError(f"unknown part {name!r}; known: {list(self.parts)}")
+        parts = dict(self.parts)
+        parts[name] = part
+        return dataclasses.replace(self, parts=parts, name=model_name or f"{self.name}+{name}")
+
+    def with_terms(self, *terms: BalanceTerm, model_name: str | None = None) -> CellModel:
+        """This model with extra flows added to its balances."""
+        names = [t.name for t in terms]
+        return dataclasses.replace(
+            self, terms=self.terms + tuple(terms), name=model_name or f"{self.name}+{'+'.join(names)}"
+        )
+
+    def describe(self) -> str:
+        """The model as readable equations, one quantity per line."""
+        lines = [f"model {self.name}"]
+        lines += [f"  {p.symbol} = {p.formula}  [{p.unit}]   ({p.name})" for p in self.parts.values()]
+        for t in self.terms:
+            where = ", ".join(f"{c:+g} x {b}" for b, c in t.targets.items())
+            lines.append(f"  + {t.name} = {t.formula}  [{t.unit}]  into {where}")
+        return "\n".join(lines)
+
+
+def true_model(params: CellParameters | None = None, variant: str = "authors_code") -> CellModel:
+    """The full model that generates the data (default: as the authors coded it)."""
+    parts = {"authors_code": authors_code_parts, "paper_printed": paper_printed_parts}
+    if variant not in parts:
+        raise ValueError(f"unknown equations variant {variant!r}; known: {sorted(parts)}")
+    model = CellModel(f"true[{variant}]", params or authors_code_parameters(), parts[variant]())
+    if variant == "paper_printed":
+        model = model.with_terms(_printed_ledge_wall_term(), model_name=model.name)
+    return model
+
+
+def _printed_ledge_wall_term() -> BalanceTerm:
+    """The printed ledge balance has the wall heat flow without the area k9.
+
+    Printed dx7/dt uses (x7 - x8)/(k14 + k15 k0 x1) = Q_ledge_wall / k9, so it equals
+    the coded balance plus (1 - 1/k9) Q_ledge_wall.
+    """
+
+    def fn(v, k, q):
+        return (1 - 1 / k.k9) * q["ledge_wall_heat"]
+
+    return BalanceTerm("printed_missing_k9", "(1 - 1/k9) Q_ledge_wall", "W", {"ledge_energy": 1.0}, fn)
+
+
+def ablated_model(base: CellModel | None = None, liquidus_temperature: float = 968.0) -> CellModel:
+    """The paper's PBM: ``base`` (default: the true model) with g1 fixed."""
+    base = base or true_model()
+    part = constant_part(base.parts["liquidus_temperature"], liquidus_temperature)
+    return base.with_part("liquidus_temperature", part, model_name=f"ablated[g1={liquidus_temperature:g}]")
+
+
+def model_from_config(physics: Mapping) -> tuple[CellModel, CellModel]:
+    """(true model, ablated PBM) from the ``physics`` section of the config."""
+    params = parameters_from_config(physics["constants"], physics.get("overrides"))
+    true = true_model(params, physics["equations"])
+    return true, ablated_model(true, physics["ablated_liquidus_temperature"])

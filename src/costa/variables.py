@@ -1,0 +1,55 @@
+"""Names, meanings and units of the cell's states, inputs and derived quantities.
+
+States are x1..x8 and inputs u1..u5 as in the paper (array index = number - 1).
+"""
+
+from __future__ import annotations
+
+STATES: tuple[str, ...] = tuple(f"x{i}" for i in range(1, 9))
+INPUTS: tuple[str, ...] = tuple(f"u{i}" for i in range(1, 6))
+DERIVED: tuple[str, ...] = ("g1", "U_cell")
+
+MEANING: dict[str, str] = {
+    "x1": "side-ledge mass",
+    "x2": "Al2O3 mass",
+    "x3": "AlF3 mass",
+    "x4": "molten cryolite mass",
+    "x5": "metal mass",
+    "x6": "bath temperature",
+    "x7": "side-ledge temperature",
+    "x8": "wall temperature",
+    "u1": "Al2O3 feed",
+    "u2": "line current",
+    "u3": "AlF3 feed",
+    "u4": "metal tapping",
+    "u5": "anode-cathode distance",
+    "g1": "liquidus temperature",
+    "U_cell": "cell voltage",
+    "time_s": "time",
+}
+
+UNIT: dict[str, str] = {
+    "x1": "kg",
+    "x2": "kg",
+    "x3": "kg",
+    "x4": "kg",
+    "x5": "kg",
+    "x6": "degC",
+    "x7": "degC",
+    "x8": "degC",
+    "u1": "kg/s",
+    "u2": "A",
+    "u3": "kg/s",
+    "u4": "kg/s",
+    "u5": "m",
+    "g1": "degC",
+    "U_cell": "V",
+    "time_s": "s",
+}
+
+MASS_STATES: tuple[str, ...] = ("x1", "x2", "x3", "x4", "x5")
+
+
+def label(name: str) -> str:
+    """Axis label such as ``'x6 bath temperature [degC]'``."""
+    return f"{name} {MEANING[name]} [{UNIT[name]}]"

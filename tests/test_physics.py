@@ -1,0 +1,222 @@
+"""The cell model against facts: SPEC's equations, conservation, hand-computed values, limits."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from conftest import random_operating_points
+from scipy.optimize import brentq
+
+from costa.integrate import euler_step, rk4_step
+from costa.physics import BalanceTerm, authors_code_parameters, paper_printed_parameters, true_model
+
+
+def spec_rhs(x, u):
+    """SPEC section 2 typed out flat, independently of the parts-based implementation."""
+    k0, k3, k4, k5, k6, k9 = 2e-5, 1.7e-7, 0.02, 0.03, 4.43e-8, 17.92
+    k1, k2 = 2 * 2.5 * 17.92 / 119495, 1200 * 17.92 / 119495
+    k7, k8, k12, k13 = k2 * 1881, k1 * 1881, k2 * 1320, k1 * 1320
+    k10, k11, k14, k15, k16, k17, k18 = 1 / 1200, 0.2, 0.1 / 13, 0.2, 35.0, 6e-7, 0.04
+    alpha, beta = 5.66e-4, 7.58e-4
+    x1, x2, x3, x4, x5, x6, x7, x8 = x.T
+    u1, u2, u3, u4, u5 = u.T
+    m = x2 + x3 + x4
+    p2, p3 = 100 * x2 / m, 100 * x3 / m
+    g1 = 991.2 + 1.12 * p3 - 0.13 * p3**2.2 + 0.061 * p3**1.5 - 7.93 * p2 / (
+        1 + 0.0936 * p3 - 0.0017 * p3**2 - 0.0023 * p3 * p2)  # fmt: skip
+    g2 = np.exp(2.496 - 2068.4 / (273 + x6) - 2.07 * x2 / m)
+    g3 = 0.531 + 6.958e-7 * u2 - 2.51e-12 * u2**2 + 3.06e-18 * u2**3 + (0.431 - 0.1437 * (p2 - 2.2)) / (
+        1 + 7.353 * (p2 - 2.2))  # fmt: skip
+    g4 = (0.5517 + 3.8168e-6 * u2) / (1 + 8.271e-6 * u2)
+    g5 = 3.8168e-6 * g3 * g4 * u2 / (g2 * (1 - g3))
+    U = g5 + u2 * u5 / (2620 * g2)
+    w = k1 * (g1 - x7) / (k0 * x1) - k2 * (x6 - g1)
+    return np.column_stack([
+        w, u1 - k3 * u2, u3 - k4 * u1, -w + k5 * u1, k6 * u2 - u4,
+        alpha / m * (u2 * U - k9 * (x6 - x7) / (k10 + k11 * k0 * x1) - k7 * (x6 - g1) ** 2
+                     + k8 * (x6 - g1) * (g1 - x7) / (k0 * x1)),
+        beta / x1 * (k9 * (g1 - x7) / (k15 * k0 * x1) - k9 * (x7 - x8) / (k14 + k15 * k0 * x1)
+                     - k12 * (x6 - g1) * (g1 - x7) + k13 * (g1 - x7) ** 2 / (k0 * x1)),
+        k17 * k9 * ((x7 - x8) / (k14 + k15 * k0 * x1) - (x8 - k16) / (k14 + k18)),
+    ])  # fmt: skip
+
+
+def test_true_model_is_specs_equations(model, rng):
+    x, u = random_operating_points(rng, 2000)
+    np.testing.assert_allclose(model.rhs(x, u), spec_rhs(x, u), rtol=1e-11, atol=1e-15)
+
+
+def test_constants_derive_from_material_properties():
+    k = authors_code_parameters()
+    assert k.k1 == pytest.approx(7.498e-4, rel=1e-4)
+    assert k.k2 == pytest.approx(0.17996, rel=1e-4)
+    assert k.k7 == pytest.approx(338.5, rel=1e-3)
+    assert k.k8 == pytest.approx(1.4104, rel=1e-4)
+    assert k.k12 == pytest.approx(237.5, rel=1e-3)
+    assert k.k13 == pytest.approx(0.9898, rel=1e-4)
+    assert k.k14 == pytest.approx(7.692e-3, rel=1e-4)
+    assert (k.k4, k.k17) == (0.02, 6e-7)
+    printed = paper_printed_parameters()
+    assert (printed.k4, printed.k17) == (0.036, 5.8e-7)
+
+
+def test_freezing_moves_mass_between_ledge_and_bath(model, rng):
+    """dx1/dt + dx4/dt = k5 u1: freezing only moves cryolite between bath and ledge."""
+    x, u = random_operating_points(rng, 5000)
+    dx = model.rhs(x, u)
+    k5 = model.params.k5
+    np.testing.assert_allclose(
+        dx[:, 0] + dx[:, 3], k5 * u[:, 0], rtol=0, atol=4 * np.finfo(float).eps * np.abs(dx[:, 0]).max()
+    )
+
+
+def test_linear_states_follow_their_inputs(model, rng):
+    x, u = random_operating_points(rng, 100)
+    dx = model.rhs(x, u)
+    k = model.params
+    np.testing.assert_array_equal(dx[:, 1], u[:, 0] - k.k3 * u[:, 1])
+    np.testing.assert_array_equal(dx[:, 2], u[:, 2] - k.k4 * u[:, 0])
+    np.testing.assert_array_equal(dx[:, 4], k.k6 * u[:, 1] - u[:, 3])
+
+
+def _state(c2, c3, x4=15000.0, x1=3000.0, x6=970.0, x7=820.0, x8=580.0, x5=9900.0):
+    bath = x4 / (1 - c2 - c3)
+    return np.array([x1, c2 * bath, c3 * bath, x4, x5, x6, x7, x8])
+
+
+def test_liquidus_temperature_at_hand_computed_point(model):
+    """c2 = 3 %, c3 = 11 %: 991.2 + 12.32 - 0.13 * 11^2.2 + 0.061 * 11^1.5 - 23.79/1.7480."""
+    hand = 991.2 + 1.12 * 11 - 0.13 * math.exp(2.2 * math.log(11)) + 0.061 * 11 * math.sqrt(11) - 7.93 * 3 / (
+        1 + 0.0936 * 11 - 0.0017 * 121 - 0.0023 * 33)  # fmt: skip
+    g1 = model.quantities(_state(0.03, 0.11), np.array([0, 1.4e5, 0, 0, 0.05]))["liquidus_temperature"]
+    assert g1 == pytest.approx(hand, rel=1e-13)
+    assert g1 == pytest.approx(966.7255, abs=1e-4)
+
+
+def test_liquidus_matches_papers_fraction_form(model, rng):
+    """The printed form in mass fractions (with 3265.5 = 0.13 * 100^2.2 rounded) agrees to rounding."""
+    x, u = random_operating_points(rng, 500)
+    c2, c3 = x[:, 1] / x[:, 1:4].sum(1), x[:, 2] / x[:, 1:4].sum(1)
+    printed = (
+        991.2 + 112 * c3 + 61 * c3**1.5 - 3265.5 * c3**2.2 - 793 * c2 / (-23 * c2 * c3 - 17 * c3**2 + 9.36 * c3 + 1)
+    )
+    np.testing.assert_allclose(model.quantities(x, u)["liquidus_temperature"], printed, atol=0.01)
+
+
+def test_conductivity_and_voltages_at_hand_computed_point(model):
+    x, u = _state(0.03, 0.11, x6=970.0), np.array([0.0, 1.4e5, 0.0, 0.0, 0.05])
+    q = model.quantities(x, u)
+    g2 = math.exp(2.496 - 2068.4 / 1243 - 2.07 * 0.03)
+    g3 = (
+        0.531 + 6.958e-7 * 1.4e5 - 2.51e-12 * 1.96e10 + 3.06e-18 * 2.744e15 + (0.431 - 0.1437 * 0.8) / (1 + 7.353 * 0.8)
+    )
+    g4 = (0.5517 + 3.8168e-6 * 1.4e5) / (1 + 8.271e-6 * 1.4e5)
+    g5 = 3.8168e-6 * g3 * g4 * 1.4e5 / (g2 * (1 - g3))
+    assert q["bath_conductivity"] == pytest.approx(g2, rel=1e-12)
+    assert q["bath_conductivity"] == pytest.approx(2.15947, abs=1e-5)
+    assert q["bubble_thickness"] == pytest.approx(g4, rel=1e-12)
+    assert q["bubble_coverage"] == pytest.approx(g3, rel=1e-12)
+    assert q["bubble_voltage"] == pytest.approx(g5, rel=1e-12)
+    assert q["bubble_voltage"] == pytest.approx(0.215291, abs=1e-6)
+    assert q["cell_voltage"] == pytest.approx(g5 + 1.4e5 * 0.05 / (2620 * g2), rel=1e-12)
+
+
+def test_bubble_voltage_diverges_at_anode_effect(model):
+    """g3 -> 1 as the alumina fraction falls towards the critical 2.2 %: the anode effect."""
+    u = np.array([0.0, 1.4e5, 0.0, 0.0, 0.05])
+    g3 = lambda c2: model.quantities(_state(c2, 0.11), u)["bubble_coverage"] - 1  # noqa: E731
+    c_anode = brentq(g3, 0.02201, 0.03)
+    assert 0.0220 < c_anode < 0.0222
+    g5 = [model.quantities(_state(c_anode + d, 0.11), u)["bubble_voltage"] for d in (1e-3, 1e-5, 1e-7)]
+    assert g5[0] < g5[1] < g5[2] and g5[2] > 100
+
+
+def test_ablated_model_equals_true_model_where_liquidus_is_968(model, pbm):
+    u = np.array([5.0, 1.3e5, 1.0, 2.0, 0.052])
+    for c2 in (0.022, 0.025, 0.03):  # at c2 >= 4 % g1 < 968 for any c3
+        c3 = brentq(lambda c3, c2=c2: model.quantities(_state(c2, c3), u)["liquidus_temperature"] - 968.0, 0.01, 0.2)
+        x = _state(c2, c3)
+        assert model.quantities(x, u)["liquidus_temperature"] == pytest.approx(968.0, abs=1e-9)
+        np.testing.assert_allclose(pbm.rhs(x, u), model.rhs(x, u), rtol=1e-9, atol=1e-12)
+
+
+def test_ablation_changes_only_the_liquidus_dependent_balances(model, pbm, rng):
+    x, u = random_operating_points(rng, 200)
+    true, ablated = model.rhs(x, u), pbm.rhs(x, u)
+    for i in (1, 2, 4, 7):  # x2, x3, x5, x8 do not read g1
+        np.testing.assert_array_equal(true[:, i], ablated[:, i])
+    for i in (0, 3, 5, 6):
+        assert np.all(true[:, i] != ablated[:, i])
+    np.testing.assert_array_equal(pbm.quantities(x, u)["liquidus_temperature"], 968.0)
+
+
+def test_numpy_and_torch_agree(model, rng):
+    x, u = random_operating_points(rng, 300)
+    from_torch = model.rhs(torch.from_numpy(x), torch.from_numpy(u)).numpy()
+    np.testing.assert_allclose(from_torch, model.rhs(x, u), rtol=1e-12, atol=1e-16)
+
+
+def test_torch_gradients_flow_through_the_model(model, rng):
+    x, u = random_operating_points(rng, 4)
+    xt = torch.from_numpy(x).requires_grad_()
+    model.rhs(xt, torch.from_numpy(u))[:, 5].sum().backward()
+    assert torch.isfinite(xt.grad).all() and (xt.grad[:, 5] != 0).all()
+
+
+def test_model_broadcasts_over_batch_shapes(model, rng):
+    x, u = random_operating_points(rng, 12)
+    flat = model.rhs(x, u)
+    np.testing.assert_array_equal(model.rhs(x.reshape(3, 4, 8), u.reshape(3, 4, 5)).reshape(12, 8), flat)
+    np.testing.assert_array_equal(model.rhs(x[0], u[0]), flat[0])
+
+
+@pytest.mark.parametrize(("step", "order"), [(rk4_step, 4), (euler_step, 1)])
+def test_integrator_convergence_order_on_the_cell_model(model, step, order):
+    """Halving dt divides the error at T = 2000 s by 2^order (constant inputs)."""
+    x0, u = _state(0.03, 0.11), np.array([0.0, 1.4e5, 0.0, 0.0, 0.05])
+
+    def solve(dt):
+        x = x0.copy()
+        for _ in range(round(2000 / dt)):
+            x = step(model.rhs, x, u, dt)
+        return x
+
+    reference = solve(2000 / 4096) if order == 1 else solve(2000 / 512)
+    errors = [np.abs((solve(dt) - reference) / reference).max() for dt in (200, 100, 50)]
+    observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.abs(observed - order) < 0.35), observed
+
+
+def test_balance_terms_add_flows_in_physical_units(model, rng):
+    x, u = random_operating_points(rng, 50)
+    top_loss = BalanceTerm(
+        "top_heat_loss", "20 kW", "W", {"bath_energy": -1.0}, lambda v, k, q: v.xp.full_like(v.x1, 2e4)
+    )
+    changed = model.with_terms(top_loss)
+    difference = changed.rhs(x, u) - model.rhs(x, u)
+    m = x[:, 1:4].sum(1)
+    np.testing.assert_allclose(difference[:, 5], -model.params.alpha / m * 2e4, rtol=1e-9)
+    np.testing.assert_array_equal(np.delete(difference, 5, axis=1), 0)
+    with pytest.raises(ValueError, match="is in W but balance 'alumina_mass'"):
+        BalanceTerm("bad", "", "W", {"alumina_mass": 1.0}, top_loss.fn)
+    with pytest.raises(ValueError, match="unknown part 'liquidus'"):
+        model.with_part("liquidus", model.parts["liquidus_temperature"])
+
+
+def test_printed_variant_reads_the_alumina_feed_in_g3_and_drops_k9(rng):
+    printed, code = true_model(variant="paper_printed"), true_model()
+    x, u = random_operating_points(rng, 100)
+    u_changed = u.copy()
+    u_changed[:, 1] *= 1.1
+    g3 = lambda m, uu: m.quantities(x, uu)["bubble_coverage"]  # noqa: E731
+    np.testing.assert_array_equal(g3(printed, u), g3(printed, u_changed))
+    assert np.all(g3(code, u) != g3(code, u_changed))
+    k = code.params
+    q = code.quantities(x, u)
+    wall_printed = k.beta / x[:, 0] * (q["ledge_wall_heat"] / k.k9)
+    dx7_printed_wall_only = code.rhs(x, u)[:, 6] + k.beta / x[:, 0] * q["ledge_wall_heat"] - wall_printed
+    printed_same_g3 = printed.with_part("bubble_coverage", code.parts["bubble_coverage"])
+    np.testing.assert_allclose(printed_same_g3.rhs(x, u)[:, 6], dx7_printed_wall_only, rtol=1e-10)
