@@ -1,0 +1,40 @@
+"""The paper's colours and the one way figures are saved."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+#: tab10 colours as the paper uses them (Tpurple, Tblue, Tgreen, Torange, Tred)
+MODEL_COLORS = {
+    "ddm_dense": "#9467bd",
+    "ddm_sparse": "#1f77b4",
+    "costa_dense": "#2ca02c",
+    "costa_sparse": "#ff7f0e",
+    "pbm": "#d62728",
+}
+MODEL_LABELS = {
+    "ddm_dense": "DDM dense",
+    "ddm_sparse": "DDM sparse",
+    "costa_dense": "CoSTA dense",
+    "costa_sparse": "CoSTA sparse",
+    "pbm": "PBM (ablated)",
+}
+TRAIN_COLOR = "#1f77b4"
+TEST_COLOR = "#ff7f0e"
+TRUTH_COLOR = "black"
+
+# Fixed metadata keep PDFs byte-identical for identical figures.
+_METADATA = {"png": {"Software": None}, "pdf": {"CreationDate": None, "Producer": None, "Creator": None}}
+
+
+def save(fig: plt.Figure, *paths: str | Path, dpi: int = 150) -> None:
+    """Save a figure to each path (format from the suffix) and close it."""
+    for path in paths:
+        suffix = Path(path).suffix[1:].lower()
+        fig.savefig(path, dpi=dpi, bbox_inches="tight", metadata=_METADATA.get(suffix))
+    plt.close(fig)

@@ -1,0 +1,64 @@
+"""The whole Snakemake DAG on the smoke config, in a temporary directory; lint and format."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+from conftest import REPOSITORY
+
+SNAKEMAKE = [sys.executable, "-m", "snakemake", "--snakefile", str(REPOSITORY / "Snakefile")]
+
+
+def snakemake(workdir, *args, check=True):
+    result = subprocess.run(
+        [*SNAKEMAKE, "--directory", str(workdir), "--cores", "2", *args],
+        capture_output=True, text=True, cwd=workdir,
+    )  # fmt: skip
+    if check and result.returncode != 0:
+        raise AssertionError(f"snakemake {args} failed:\n{result.stdout[-3000:]}\n{result.stderr[-6000:]}")
+    return result
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory):
+    workdir = tmp_path_factory.mktemp("smoke")
+    snakemake(workdir, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"))
+    return workdir
+
+
+def test_smoke_run_builds_every_target(smoke_run):
+    for path in ("results/data/train.parquet", "results/data/test.parquet", "results/figures/datasets.png",
+                 "results/figures/datasets.pdf", "results/logs/simulate_train.log", "results/benchmarks/simulate_test.tsv"):  # fmt: skip
+        assert (smoke_run / path).stat().st_size > 0, path
+    test = pd.read_parquet(smoke_run / "results/data/test.parquet")
+    assert test["trajectory"].nunique() == 4 and test["step"].max() == 399
+
+
+def test_second_run_has_nothing_to_do(smoke_run):
+    result = snakemake(smoke_run, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"), "--dry-run")
+    assert "Nothing to be done" in result.stdout + result.stderr
+
+
+def test_bad_config_stops_with_the_key_and_keeps_results(smoke_run):
+    data = smoke_run / "results/data/train.parquet"
+    before = data.read_bytes()
+    bad = smoke_run / "bad.yaml"
+    bad.write_text("simulation:\n  train_trajectories: -3\n")
+    result = snakemake(smoke_run, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"), str(bad), check=False)
+    assert result.returncode != 0
+    assert "invalid config at 'simulation.train_trajectories': -3 is less than the minimum of 1" in result.stderr
+    assert data.read_bytes() == before
+
+
+def test_lint_has_nothing_to_say():
+    result = subprocess.run([*SNAKEMAKE, "--lint"], capture_output=True, text=True, cwd=REPOSITORY)
+    assert result.returncode == 0 and "Congratulations" in result.stdout + result.stderr, result.stdout + result.stderr
+
+
+def test_snakemake_files_are_formatted():
+    files = [str(REPOSITORY / "Snakefile"), *map(str, sorted((REPOSITORY / "workflow" / "rules").glob("*.smk")))]
+    result = subprocess.run([sys.executable, "-m", "snakefmt", "--check", *files], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr

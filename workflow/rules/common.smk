@@ -1,0 +1,69 @@
+# Paths, wildcards and the library files each stage depends on.
+import os
+import re
+from pathlib import Path
+
+SRC = Path(workflow.basedir) / "src"
+PACKAGE = SRC / "costa"
+ENV = "../../envs/costa.yaml"
+
+# The scripts import the library from this checkout, whether or not it is installed
+# and whichever software deployment runs them.  This provides a variable to the jobs;
+# it does not require one from the user.
+os.environ.update(
+    PYTHONPATH=os.pathsep.join(filter(None, [str(SRC), os.environ.get("PYTHONPATH")]))
+)
+# One BLAS/OpenMP thread per job unless the job sets more (PERF_NOTES, oversubscription).
+for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+
+wildcard_constraints:
+    rep=r"(replicates/r[1-9][0-9]*/)?",
+    split="train|test",
+
+
+def replicate_prefix(index):
+    """Replicate 0 (the paper's run) is written to results/, replicate k to results/replicates/rk/."""
+    return "" if index == 0 else f"replicates/r{index}/"
+
+
+def replicate_index(wildcards):
+    match = re.fullmatch(r"replicates/r(\d+)/", wildcards.rep)
+    return int(match.group(1)) if match else 0
+
+
+def package_files(*modules):
+    """Library files whose change must rerun a rule.
+
+    Snakemake reruns a script rule when the script changes, not when the library it
+    imports changes; declaring the modules as inputs closes that gap.
+    """
+    files = []
+    for module in modules:
+        path = PACKAGE / module
+        files += sorted(map(str, path.rglob("*.py"))) if path.is_dir() else [str(path)]
+    return files
+
+
+SIMULATION_CODE = package_files(
+    "physics",
+    "simulate.py",
+    "integrate.py",
+    "seeds.py",
+    "data.py",
+    "datasets.py",
+    "variables.py",
+)
+
+
+def all_targets():
+    targets = []
+    for index in range(config["replicates"]):
+        prefix = f"results/{replicate_prefix(index)}"
+        targets += [
+            f"{prefix}data/train.parquet",
+            f"{prefix}data/test.parquet",
+            f"{prefix}figures/datasets.png",
+        ]
+    return targets

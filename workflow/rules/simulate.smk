@@ -1,0 +1,20 @@
+rule simulate:
+    """Simulate one data set with the true model (SPEC section 4)."""
+    input:
+        code=SIMULATION_CODE,
+    output:
+        data="results/{rep}data/{split}.parquet",
+    log:
+        "results/{rep}logs/simulate_{split}.log",
+    benchmark:
+        "results/{rep}benchmarks/simulate_{split}.tsv"
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=lambda wildcards: {
+            key: config[key] for key in ("seed", "physics", "simulation")
+        },
+        replicate=replicate_index,
+    script:
+        "../scripts/simulate.py"
