@@ -7,18 +7,21 @@ from snakemake.utils import min_version, validate
 min_version("9.0")
 
 
-configfile: "config/config.yaml"
+configfile: f"{workflow.basedir}/config/config.yaml"
 
 
 sys.path.insert(0, f"{workflow.basedir}/src")
 from costa.config import check_config  # noqa: E402
 
 check_config(config)  # one message naming the offending key
-validate(config, "workflow/schemas/config.schema.yaml", set_default=True)
+validate(
+    config, f"{workflow.basedir}/workflow/schemas/config.schema.yaml", set_default=True
+)
 
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/simulate.smk"
+include: "workflow/rules/train.smk"
 include: "workflow/rules/figures.smk"
 
 

@@ -54,3 +54,18 @@ def random_operating_points(rng: np.random.Generator, n: int) -> tuple[np.ndarra
         rng.uniform(0, 9, n), rng.uniform(0.043, 0.057, n),
     ])  # fmt: skip
     return x, u
+
+
+@pytest.fixture(scope="session")
+def smoke_config() -> dict:
+    return load_config(REPOSITORY / "config" / "config.yaml", REPOSITORY / "config" / "smoke.yaml")
+
+
+@pytest.fixture(scope="session")
+def smoke_train(smoke_config) -> tuple[np.ndarray, np.ndarray]:
+    """States (3, 400, 8) and inputs (3, 400, 5) of the smoke config's training set."""
+    from costa.data import arrays
+    from costa.datasets import simulate_split
+
+    table, _ = simulate_split(smoke_config, "train", replicate=0)
+    return arrays(table)

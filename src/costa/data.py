@@ -72,8 +72,8 @@ def arrays(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
         )
     n, steps = lengths.size, int(lengths.iloc[0])
     ordered = table.sort_values(["trajectory", "time_s"], kind="stable")
-    x = ordered[list(STATES)].to_numpy(dtype=np.float64).reshape(n, steps, 8)
-    u = ordered[list(INPUTS)].to_numpy(dtype=np.float64).reshape(n, steps, 5)
+    x = ordered[list(STATES)].to_numpy(dtype=np.float64, copy=True).reshape(n, steps, 8)
+    u = ordered[list(INPUTS)].to_numpy(dtype=np.float64, copy=True).reshape(n, steps, 5)
     return x, u
 
 

@@ -18,9 +18,13 @@ for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 
+MODEL_TYPES = list(config["training"]["model_types"])
+
+
 wildcard_constraints:
     rep=r"(replicates/r[1-9][0-9]*/)?",
     split="train|test",
+    model_type="|".join(MODEL_TYPES),
 
 
 def replicate_prefix(index):
@@ -56,6 +60,23 @@ SIMULATION_CODE = package_files(
     "variables.py",
 )
 
+TRAINING_CODE = SIMULATION_CODE + package_files("train.py", "ensemble.py", "models.py")
+
+
+def training_config(model_type):
+    """What training one model type depends on, and nothing else (so that changing
+    another type's setting, or the test set, retrains nothing)."""
+    training = {k: v for k, v in config["training"].items() if k != "model_types"}
+    training["model_types"] = {
+        model_type: config["training"]["model_types"][model_type]
+    }
+    return {
+        "seed": config["seed"],
+        "physics": config["physics"],
+        "simulation": {"dt_s": config["simulation"]["dt_s"]},
+        "training": training,
+    }
+
 
 def all_targets():
     targets = []
@@ -65,5 +86,6 @@ def all_targets():
             f"{prefix}data/train.parquet",
             f"{prefix}data/test.parquet",
             f"{prefix}figures/datasets.png",
+            f"{prefix}figures/training_curves.png",
         ]
     return targets

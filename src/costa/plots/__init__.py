@@ -2,5 +2,6 @@
 
 from .datasets import plot_datasets
 from .style import save
+from .training import plot_training_curves
 
-__all__ = ["plot_datasets", "save"]
+__all__ = ["plot_datasets", "plot_training_curves", "save"]

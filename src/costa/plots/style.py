@@ -28,6 +28,16 @@ TRAIN_COLOR = "#1f77b4"
 TEST_COLOR = "#ff7f0e"
 TRUTH_COLOR = "black"
 
+
+def model_color(name: str) -> str:
+    """The paper's colour of a model type (grey for types the paper does not have)."""
+    return MODEL_COLORS.get(name, "#7f7f7f")
+
+
+def model_label(name: str) -> str:
+    return MODEL_LABELS.get(name, name)
+
+
 # Fixed metadata keep PDFs byte-identical for identical figures.
 _METADATA = {"png": {"Software": None}, "pdf": {"CreationDate": None, "Producer": None, "Creator": None}}
 

@@ -1,0 +1,26 @@
+rule train:
+    """Train the instances of one model type as one stacked ensemble (SPEC section 5)."""
+    input:
+        train="results/{rep}data/train.parquet",
+        code=TRAINING_CODE,
+    output:
+        models=expand(
+            "results/{{rep}}models/{{model_type}}/instance{i}.pt",
+            i=range(config["training"]["instances"]),
+        ),
+        losses="results/{rep}models/{model_type}/losses.parquet",
+        sparsity="results/{rep}models/{model_type}/sparsity.parquet",
+    log:
+        "results/{rep}logs/train_{model_type}.log",
+    benchmark:
+        "results/{rep}benchmarks/train_{model_type}.tsv"
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=2000,
+    params:
+        config=lambda wildcards: training_config(wildcards.model_type),
+        replicate=replicate_index,
+    script:
+        "../scripts/train.py"
