@@ -7,22 +7,29 @@ from snakemake.utils import min_version, validate
 min_version("9.0")
 
 
+report: "workflow/report/workflow.rst"
+
+
 configfile: f"{workflow.basedir}/config/config.yaml"
 
 
 sys.path.insert(0, f"{workflow.basedir}/src")
-from costa.config import check_config  # noqa: E402
+from costa.config import check_config, check_consistency  # noqa: E402
 
-check_config(config)  # one message naming the offending key
+# One message naming the offending key, then defaults, then checks across keys.
+check_config(config)
 validate(
     config, f"{workflow.basedir}/workflow/schemas/config.schema.yaml", set_default=True
 )
+check_consistency(config)
 
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/train.smk"
+include: "workflow/rules/evaluate.smk"
 include: "workflow/rules/figures.smk"
+include: "workflow/rules/report.smk"
 
 
 rule all:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import nbformat
 import pandas as pd
 import pytest
 from conftest import REPOSITORY
@@ -29,12 +30,34 @@ def smoke_run(tmp_path_factory):
     return workdir
 
 
+SMOKE_OUTPUTS = [
+    "results/data/train.parquet", "results/data/test.parquet",
+    "results/models/costa_sparse/instance1.pt", "results/models/ddm_dense/losses.parquet",
+    "results/models/ddm_sparse/sparsity.parquet", "results/eval/pbm/metrics.parquet",
+    "results/eval/metrics.parquet", "results/eval/summary.csv", "results/eval/claims.csv",
+    "results/figures/datasets.png", "results/figures/datasets.pdf", "results/figures/training_curves.png",
+    "results/figures/error_violins.png", "results/figures/blowups.pdf", "results/figures/rolling_forecast.png",
+    "results/logs/simulate_train.log", "results/benchmarks/train_ddm_dense.tsv",
+    "report/report.html", "results/report/report.ipynb",
+]  # fmt: skip
+
+
 def test_smoke_run_builds_every_target(smoke_run):
-    for path in ("results/data/train.parquet", "results/data/test.parquet", "results/figures/datasets.png",
-                 "results/figures/datasets.pdf", "results/logs/simulate_train.log", "results/benchmarks/simulate_test.tsv"):  # fmt: skip
+    for path in SMOKE_OUTPUTS:
         assert (smoke_run / path).stat().st_size > 0, path
     test = pd.read_parquet(smoke_run / "results/data/test.parquet")
     assert test["trajectory"].nunique() == 4 and test["step"].max() == 399
+    metrics = pd.read_parquet(smoke_run / "results/eval/metrics.parquet")
+    # (4 types x 2 instances + the PBM) x 4 trajectories x 3 windows x 2 definitions
+    assert len(metrics) == (4 * 2 + 1) * 4 * 3 * 2
+
+
+def test_report_is_rendered_without_errors(smoke_run):
+    notebook = nbformat.read(smoke_run / "results/report/report.ipynb", as_version=4)
+    outputs = [o for cell in notebook.cells if cell.cell_type == "code" for o in cell.outputs]
+    assert not [o for o in outputs if o.output_type == "error"]
+    html = (smoke_run / "report/report.html").read_text()
+    assert "reproduced" in html and "Provenance" in html and html.count("<img") >= 5
 
 
 def test_second_run_has_nothing_to_do(smoke_run):

@@ -14,7 +14,7 @@ REPOSITORY = Path(__file__).resolve().parents[2]
 SCHEMA = REPOSITORY / "workflow" / "schemas" / "config.schema.yaml"
 DEFAULT_CONFIG = REPOSITORY / "config" / "config.yaml"
 
-__all__ = ["ConfigError", "check_config", "load_config"]
+__all__ = ["ConfigError", "check_config", "check_consistency", "load_config"]
 
 
 class ConfigError(ValueError):
@@ -30,6 +30,34 @@ def check_config(config: Mapping[str, Any], schema_path: str | Path = SCHEMA) ->
         raise ConfigError(f"invalid config at '{where}': {error.message}")
 
 
+def check_consistency(config: Mapping[str, Any]) -> None:
+    """Checks across keys that a schema cannot express; raise :class:`ConfigError` naming the keys."""
+    from .metrics import EvaluationSettings
+
+    steps = config["simulation"]["steps"]
+    evaluation, figures = config["evaluation"], config["figures"]
+    try:
+        EvaluationSettings.from_config(evaluation).check(steps)
+    except ValueError as error:
+        raise ConfigError(f"{error} (simulation.steps)") from None
+    tests = config["simulation"]["test_trajectories"]
+    if any(t >= tests for t in evaluation["saved_trajectories"]):
+        raise ConfigError(
+            f"evaluation.saved_trajectories {evaluation['saved_trajectories']} must be below simulation.test_trajectories = {tests}"
+        )
+    if figures["rolling_forecast_trajectory"] not in evaluation["saved_trajectories"]:
+        raise ConfigError(
+            f"figures.rolling_forecast_trajectory = {figures['rolling_forecast_trajectory']} must be one of "
+            f"evaluation.saved_trajectories {evaluation['saved_trajectories']}"
+        )
+    unknown = sorted(set(figures["rolling_forecast_types"]) - set(config["training"]["model_types"]))
+    if unknown:
+        raise ConfigError(f"figures.rolling_forecast_types {unknown} are not in training.model_types")
+    copied = evaluation["copied_samples"]
+    if max(copied.values()) >= steps:
+        raise ConfigError(f"evaluation.copied_samples {copied} must be below simulation.steps = {steps}")
+
+
 def load_config(*paths: str | Path, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Deep-merge the YAML files (later ones win) and ``overrides``, check, fill defaults."""
     config: dict[str, Any] = {}
@@ -38,4 +66,5 @@ def load_config(*paths: str | Path, overrides: Mapping[str, Any] | None = None) 
     update_config(config, dict(overrides or {}))
     check_config(config)
     validate(config, str(SCHEMA), set_default=True)
+    check_consistency(config)
     return config

@@ -19,12 +19,14 @@ for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 
 
 MODEL_TYPES = list(config["training"]["model_types"])
+EVALUATED = [*MODEL_TYPES, "pbm"]  # the trained types and the ablated physics model
 
 
 wildcard_constraints:
     rep=r"(replicates/r[1-9][0-9]*/)?",
     split="train|test",
     model_type="|".join(MODEL_TYPES),
+    model="|".join(EVALUATED),
 
 
 def replicate_prefix(index):
@@ -62,6 +64,22 @@ SIMULATION_CODE = package_files(
 
 TRAINING_CODE = SIMULATION_CODE + package_files("train.py", "ensemble.py", "models.py")
 
+EVALUATION_CODE = TRAINING_CODE + package_files(
+    "forecast.py", "metrics.py", "evaluate.py"
+)
+
+
+def trained_instances(wildcards):
+    """The saved instances a rollout needs (none for the PBM)."""
+    if wildcards.model == "pbm":
+        return []
+    return expand(
+        "results/{rep}models/{model}/instance{i}.pt",
+        rep=wildcards.rep,
+        model=wildcards.model,
+        i=range(config["training"]["instances"]),
+    )
+
 
 def training_config(model_type):
     """What training one model type depends on, and nothing else (so that changing
@@ -78,8 +96,19 @@ def training_config(model_type):
     }
 
 
+def job_benchmarks(rep):
+    """The benchmark file of every job of one replicate (the report's run-time table)."""
+    prefix = f"results/{rep}benchmarks"
+    jobs = [f"simulate_{split}" for split in ("train", "test")]
+    jobs += [f"train_{model_type}" for model_type in MODEL_TYPES]
+    jobs += [f"rollout_{model}" for model in EVALUATED]
+    jobs += ["collect_evaluation", "plot_datasets", "plot_training_curves"]
+    jobs += ["plot_results", "plot_rolling_forecast"]
+    return [f"{prefix}/{job}.tsv" for job in jobs]
+
+
 def all_targets():
-    targets = []
+    targets = ["report/report.html"]
     for index in range(config["replicates"]):
         prefix = f"results/{replicate_prefix(index)}"
         targets += [
@@ -87,5 +116,8 @@ def all_targets():
             f"{prefix}data/test.parquet",
             f"{prefix}figures/datasets.png",
             f"{prefix}figures/training_curves.png",
+            f"{prefix}eval/summary.csv",
+            f"{prefix}figures/error_violins.png",
+            f"{prefix}figures/rolling_forecast.png",
         ]
     return targets

@@ -1,7 +1,15 @@
 """One function per figure; each takes tidy tables and returns a matplotlib Figure."""
 
 from .datasets import plot_datasets
+from .results import plot_blowups, plot_error_violins, plot_rolling_forecast
 from .style import save
 from .training import plot_training_curves
 
-__all__ = ["plot_datasets", "plot_training_curves", "save"]
+__all__ = [
+    "plot_blowups",
+    "plot_datasets",
+    "plot_error_violins",
+    "plot_rolling_forecast",
+    "plot_training_curves",
+    "save",
+]

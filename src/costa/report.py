@@ -1,0 +1,48 @@
+"""Render the report notebook: jupytext source -> executed notebook (papermill) -> HTML (nbconvert)."""
+
+from __future__ import annotations
+
+import subprocess
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import jupytext
+import nbformat
+import papermill
+from nbconvert import HTMLExporter
+
+__all__ = ["git_commit", "render_notebook"]
+
+
+def git_commit(directory: str | Path) -> str:
+    """The checked-out commit of ``directory`` (with ``-dirty`` if it has local changes), or 'unknown'."""
+    try:
+        result = subprocess.run(
+            ["git", "describe", "--always", "--dirty", "--abbrev=12"],
+            cwd=directory, capture_output=True, text=True, check=True,
+        )  # fmt: skip
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return result.stdout.strip()
+
+
+def render_notebook(
+    source: str | Path, executed: str | Path, html: str | Path, parameters: Mapping[str, Any], cwd: str | Path = "."
+) -> None:
+    """Execute the jupytext ``source`` with ``parameters``; write the executed notebook and its HTML.
+
+    The HTML leaves out the code cells (the executed notebook keeps them).
+    """
+    notebook = jupytext.read(source)
+    with tempfile.TemporaryDirectory() as tmp:
+        unexecuted = Path(tmp) / "report.ipynb"
+        nbformat.write(notebook, unexecuted)
+        papermill.execute_notebook(
+            str(unexecuted), str(executed), parameters=dict(parameters), kernel_name="python3",
+            cwd=str(cwd), progress_bar=False,
+        )  # fmt: skip
+    exporter = HTMLExporter(exclude_input=True, exclude_input_prompt=True, exclude_output_prompt=True)
+    body, _ = exporter.from_notebook_node(nbformat.read(executed, as_version=4))
+    Path(html).write_text(body)
