@@ -53,6 +53,11 @@ def check_consistency(config: Mapping[str, Any]) -> None:
     unknown = sorted(set(figures["rolling_forecast_types"]) - set(config["training"]["model_types"]))
     if unknown:
         raise ConfigError(f"figures.rolling_forecast_types {unknown} are not in training.model_types")
+    user = config["discovery"]["user_data"]
+    if user and user["name"] in config["discovery"]["cases"]:
+        raise ConfigError(
+            f"discovery.user_data.name {user['name']!r} is also a shipped case in discovery.cases; choose another name"
+        )
     copied = evaluation["copied_samples"]
     if max(copied.values()) >= steps:
         raise ConfigError(f"evaluation.copied_samples {copied} must be below simulation.steps = {steps}")

@@ -96,6 +96,56 @@ def training_config(model_type):
     }
 
 
+DISCOVERY_CODE = SIMULATION_CODE + package_files(
+    "discover", "forecast.py", "metrics.py"
+)
+SHIPPED_CASES = list(config["discovery"]["cases"])
+USER_CASE = (config["discovery"]["user_data"] or {}).get("name", "")
+DISCOVERY_CASES = SHIPPED_CASES + ([USER_CASE] if USER_CASE else [])
+
+
+def discovery_config(wildcards):
+    """What a discovery run depends on (not the training or the replication's sizes)."""
+    return {
+        key: config[key]
+        for key in (
+            "seed",
+            "physics",
+            "simulation",
+            "evaluation",
+            "discovery",
+            "training",
+        )
+    }
+
+
+def starting_model_name(wildcards):
+    """A shipped case says which model it starts from; your data start from the configured one."""
+    if wildcards.case == USER_CASE:
+        return config["discovery"]["user_data"]["starting_model"]
+    from costa.discover import CASES
+
+    return CASES[wildcards.case].starting
+
+
+def discovery_meta(wildcards):
+    """What findings.json records about the data (and, for a shipped case, what is hidden)."""
+    if wildcards.case == USER_CASE:
+        return {"data": f"measurements from {config['discovery']['user_data']['path']}"}
+    from costa.discover import CASES
+
+    case = CASES[wildcards.case]
+    d = config["discovery"]
+    return {
+        "data": f"{d['trajectories']} simulated trajectories ({d['held_out_trajectories']} held out) "
+        f"with {case.noise:.1%} measurement noise",
+        "hidden": case.hidden,
+        "kind": case.kind,
+        "expected_equations": list(case.expected_equations),
+        "accepted": list(case.accepted),
+    }
+
+
 def job_benchmarks(rep):
     """The benchmark file of every job of one replicate (the report's run-time table)."""
     prefix = f"results/{rep}benchmarks"
@@ -109,6 +159,7 @@ def job_benchmarks(rep):
 
 def all_targets():
     targets = ["report/report.html"]
+    targets += expand("results/discovery/{case}/discovery.png", case=DISCOVERY_CASES)
     for index in range(config["replicates"]):
         prefix = f"results/{replicate_prefix(index)}"
         targets += [

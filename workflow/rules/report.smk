@@ -18,6 +18,13 @@ rule report:
             "results/models/{model_type}/sparsity.parquet", model_type=MODEL_TYPES
         ),
         benchmarks=job_benchmarks(""),
+        discovery_summary=expand("results/discovery/summary.csv", _=DISCOVERY_CASES[:1]),
+        discovery_figures=expand(
+            "results/discovery/{case}/discovery.png", case=DISCOVERY_CASES
+        ),
+        discovery_findings=expand(
+            "results/discovery/{case}/findings.json", case=DISCOVERY_CASES
+        ),
         code=package_files("report.py", "paper.py", "plots"),
     output:
         html="report/report.html",

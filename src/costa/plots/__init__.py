@@ -1,6 +1,7 @@
 """One function per figure; each takes tidy tables and returns a matplotlib Figure."""
 
 from .datasets import plot_datasets
+from .discovery import plot_discovery
 from .results import plot_blowups, plot_error_violins, plot_rolling_forecast
 from .style import save
 from .training import plot_training_curves
@@ -8,6 +9,7 @@ from .training import plot_training_curves
 __all__ = [
     "plot_blowups",
     "plot_datasets",
+    "plot_discovery",
     "plot_error_violins",
     "plot_rolling_forecast",
     "plot_training_curves",

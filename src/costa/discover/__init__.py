@@ -1,0 +1,6 @@
+"""Discovery of missing physics: where a model and measured data disagree, what is missing, and a fix."""
+
+from .cases import CASES, HiddenEffectCase, add_noise
+from .search import DiscoverySettings, Round, discover
+
+__all__ = ["CASES", "DiscoverySettings", "HiddenEffectCase", "Round", "add_noise", "discover"]

@@ -1,0 +1,175 @@
+"""Shipped test cases: measured-like data in which a physical effect is hidden.
+
+Each case builds a *true* model from the full model (or, for the paper's case, is the
+full model itself), simulates trajectories with it, and adds measurement noise; the
+discovery workflow gets the noisy data and a *starting* model that lacks the effect,
+and is never told what is hidden.  ``expected_equations`` and ``accepted`` say what
+a correct answer is; ``accepted`` lists every explanation that is the same physics
+(a missing flow into a balance and the same correction of a flow part that enters
+only that balance are indistinguishable from the states alone).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..physics import BalanceTerm, CellModel, ablated_model
+
+__all__ = ["CASES", "HiddenEffectCase", "add_noise"]
+
+
+@dataclass(frozen=True)
+class HiddenEffectCase:
+    name: str
+    hidden: str
+    kind: str
+    starting: str  # "ablated": the paper's PBM; "full": the full model
+    noise: float  # measurement noise std, as a fraction of each state's std
+    expected_equations: tuple[str, ...]
+    accepted: tuple[str, ...]
+    make_true: Callable[[CellModel], CellModel]
+
+    def models(self, full: CellModel) -> tuple[CellModel, CellModel]:
+        """(true model with the effect, starting model without it)."""
+        start = ablated_model(full) if self.starting == "ablated" else full
+        return self.make_true(full), start
+
+
+def add_noise(x: np.ndarray, level: float, rng: np.random.Generator) -> np.ndarray:
+    """x plus Gaussian noise of std ``level`` times each state's std over the data."""
+    scale = level * x.reshape(-1, x.shape[-1]).std(axis=0)
+    return x + rng.normal(size=x.shape) * scale
+
+
+def _unchanged(full: CellModel) -> CellModel:
+    return full
+
+
+def _top_heat_loss(full: CellModel) -> CellModel:
+    """Heat lost through the crust and anodes: 22 W/K (x6 - T0), about 10 % of the power."""
+    loss = BalanceTerm(
+        "top_heat_loss", "22 (x6 - k16)", "W", {"bath_energy": -1.0}, lambda v, k, q: 22.0 * (v.x6 - k.k16)
+    )
+    return full.with_terms(loss, model_name="full+top heat loss")
+
+
+def _alf3_evaporation(full: CellModel) -> CellModel:
+    """AlF3 evaporates in proportion to its fraction and exponentially with temperature."""
+    rate = BalanceTerm(
+        "alf3_evaporation", "0.02 c3 exp((x6 - 970)/25)", "kg/s", {"alf3_mass": -1.0},
+        lambda v, k, q: 0.02 * v.c3 * v.xp.exp((v.x6 - 970.0) / 25.0),
+    )  # fmt: skip
+    return full.with_terms(rate, model_name="full+AlF3 evaporation")
+
+
+def _wall_conductivity(full: CellModel) -> CellModel:
+    """The wall's conductivity rises with its temperature: k_wall (1 + 0.004 (x8 - 580))."""
+    part = full.parts["ledge_wall_heat"]
+
+    def fn(v, k, q):
+        k14 = k.k14 / (1 + 0.004 * (v.x8 - 580.0))
+        return k.k9 * (v.x7 - v.x8) / (k14 + k.k15 * k.k0 * v.x1)
+
+    return full.with_part("ledge_wall_heat", part.renamed("k9 (x7 - x8)/(k14/(1 + 0.004 (x8 - 580)) + k15 k0 x1)", fn))
+
+
+def _alumina_dissolution(full: CellModel) -> CellModel:
+    """Part of the alumina feed settles as sludge; less of it at a higher superheat."""
+    sludge = BalanceTerm(
+        "alumina_sludge", "u1 (0.3 - 0.015 (x6 - g1))", "kg/s", {"alumina_mass": -1.0},
+        lambda v, k, q: v.u1 * (0.3 - 0.015 * (v.x6 - q["liquidus_temperature"])),
+    )  # fmt: skip
+    return full.with_terms(sludge, model_name="full+alumina sludge")
+
+
+def _conductivity_alf3(full: CellModel) -> CellModel:
+    """AlF3 lowers the bath's conductivity: g2 exp(-3.5 (c3 - 0.11))."""
+    part = full.parts["bath_conductivity"]
+    return full.with_part(
+        "bath_conductivity",
+        part.renamed(
+            f"{part.formula} exp(-3.5 (c3 - 0.11))", lambda v, k, q: part(v, k, q) * v.xp.exp(-3.5 * (v.c3 - 0.11))
+        ),
+    )
+
+
+_CELL_VOLTAGE_CLASS = ("part:bath_conductivity", "part:cell_voltage", "part:electric_power", "term:bath_energy")
+
+CASES: dict[str, HiddenEffectCase] = {
+    c.name: c
+    for c in (
+        HiddenEffectCase(
+            "paper_liquidus",
+            "the liquidus temperature g1 depends on the bath composition (the PBM fixes it at 968 degC)",
+            "a part replaced by a constant",
+            "ablated",
+            0.01,
+            ("x1", "x4", "x6", "x7"),
+            ("part:liquidus_temperature",),
+            _unchanged,
+        ),
+        HiddenEffectCase(
+            "top_heat_loss",
+            "a heat loss of 22 W/K (x6 - 35 degC) from the bath through the top",
+            "a missing flow in an energy balance",
+            "full",
+            0.01,
+            ("x6",),
+            ("term:bath_energy", "part:electric_power", "part:bath_ledge_heat"),
+            _top_heat_loss,
+        ),
+        HiddenEffectCase(
+            "alf3_evaporation",
+            "AlF3 evaporates at 0.02 c3 exp((x6 - 970)/25) kg/s",
+            "a missing flow in a mass balance",
+            "full",
+            0.005,
+            ("x3",),
+            ("term:alf3_mass",),
+            _alf3_evaporation,
+        ),
+        HiddenEffectCase(
+            "wall_conductivity",
+            "the wall conductivity rises 0.4 %/K with the wall temperature x8",
+            "a coefficient that depends on a state",
+            "full",
+            0.01,
+            ("x7", "x8"),
+            ("part:ledge_wall_heat", "transfer:ledge_energy->wall_energy"),
+            _wall_conductivity,
+        ),
+        HiddenEffectCase(
+            "alumina_dissolution",
+            "a fraction 0.3 - 0.015 (x6 - g1) of the alumina feed settles as sludge",
+            "an efficiency that varies with operating conditions",
+            "full",
+            0.01,
+            ("x2",),
+            ("term:alumina_mass",),
+            _alumina_dissolution,
+        ),
+        HiddenEffectCase(
+            "conductivity_alf3",
+            "the bath conductivity falls with the AlF3 fraction: g2 exp(-3.5 (c3 - 0.11))",
+            "a coefficient that depends on the composition",
+            "full",
+            0.005,
+            ("x6",),
+            _CELL_VOLTAGE_CLASS,
+            _conductivity_alf3,
+        ),
+        HiddenEffectCase(
+            "no_effect",
+            "nothing: the data come from the starting model itself",
+            "no effect (a null case)",
+            "full",
+            0.01,
+            (),
+            (),
+            _unchanged,
+        ),
+    )
+}

@@ -1,0 +1,145 @@
+"""Candidate explanations of a disagreement: a wrong part, or a flow missing from the balances.
+
+Each hypothesis is one unknown function delta(t) entering the state rates through a
+known sensitivity J_h(x, u) (8,):
+
+- ``part:<name>``: the part's value is off by delta (in the part's unit); J is the
+  derivative of dx/dt with respect to that value (numerically, at the current model);
+- ``term:<balance>``: a flow delta (kg/s or W) is missing from one balance; J is 1
+  for a mass balance, alpha/m, beta/x1 or k17 for an energy balance;
+- ``transfer:<a>-><b>``: a flow leaves balance a and enters balance b (same unit).
+
+Hypotheses with the same J explain the data equally well; the closed form and, on a
+tie, :data:`PREFERENCE` decide which one is named (the others are reported as
+equivalent).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics import BALANCES, PART_ORDER, BalanceTerm, CellModel, CellVariables
+from .library import Feature, evaluate, feature_library
+
+__all__ = ["Hypothesis", "candidate_hypotheses"]
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One candidate explanation; ``target`` is a part name or the balances a flow enters."""
+
+    key: str
+    kind: str
+    target: str
+    unit: str
+    targets: Mapping[str, float] = field(default_factory=dict)
+
+    def describe(self, model: CellModel) -> str:
+        if self.kind == "part":
+            part = model.parts[self.target]
+            return f"the {part.name.replace('_', ' ')} {part.symbol} [{part.unit}] is not as modelled ({part.symbol} = {part.formula})"
+        if self.kind == "term":
+            return f"a flow [{self.unit}] is missing from the {self.target.replace('_', ' ')} balance"
+        source, sink = self.target.split("->")
+        return f"a flow [{self.unit}] from the {source.replace('_', ' ')} balance to the {sink.replace('_', ' ')} balance is missing"
+
+    def features(self, rich: bool = False) -> list[Feature]:
+        """The term library.  A part's correction may read only the quantities computed before
+        it, and a part that is not a flow (kg/s or W) may not depend on the feed and tapping flows."""
+        library = feature_library(relative=self.kind == "part", rich=rich)
+        if self.kind != "part":
+            return library
+        available = set(PART_ORDER[: PART_ORDER.index(self.target)])
+        is_flow = self.unit in ("kg/s", "W")
+        return [f for f in library if f.needs <= available and (is_flow or not f.reads_flow_inputs)]
+
+    def sensitivity(self, model: CellModel, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """dx/dt per unit of delta (..., 8) at the current model."""
+        if self.kind != "part":
+            per_flow = model.state_rate_per_flow(x, u)
+            rates = np.zeros_like(per_flow)
+            for balance, coefficient in self.targets.items():
+                index = list(BALANCES).index(balance)
+                rates[..., index] = coefficient * per_flow[..., index]
+            return rates
+        part = model.parts[self.target]
+        with np.errstate(all="ignore"):
+            value = model.quantities(x, u)[self.target]
+            step = 1e-6 * (np.nanmean(np.abs(value)) + 1e-9)
+            bumped = model.with_part(self.target, part.renamed("+step", lambda v, k, q: part(v, k, q) + step))
+            return (bumped.rhs(x, u) - model.rhs(x, u)) / step
+
+    def feature_values(self, model: CellModel, features: Sequence[Feature], x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """theta (..., P) at the data; for a part, ``own`` is the part's value in ``model``."""
+        v = CellVariables(x, u)
+        with np.errstate(all="ignore"):
+            q = model.quantities(x, u)
+        own = q[self.target] if self.kind == "part" else None
+        return evaluate(list(features), v, q, own)
+
+    def corrected(self, model: CellModel, features: Sequence[Feature], coefficients: Sequence[float]) -> CellModel:
+        """``model`` with this hypothesis' correction sum_k xi_k theta_k put in."""
+        features, coefficients = list(features), [float(c) for c in coefficients]
+
+        def correction(v, q, own):
+            return sum(c * f(v, q, own) for f, c in zip(features, coefficients, strict=True))
+
+        own = model.parts[self.target].symbol if self.kind == "part" else "own"
+        return self._with(model, correction, self.formula(features, coefficients, own=own))
+
+    def shifted(self, model: CellModel, values: np.ndarray) -> CellModel:
+        """``model`` with delta given sample by sample (an array shaped like the data it will see)."""
+        return self._with(model, lambda v, q, own: values, "delta(t)")
+
+    def _with(self, model: CellModel, correction, formula: str) -> CellModel:
+        if self.kind == "part":
+            part = model.parts[self.target]
+            return model.with_part(
+                self.target,
+                part.renamed(
+                    f"{part.formula} + {formula}", lambda v, k, q: part(v, k, q) + correction(v, q, part(v, k, q))
+                ),
+            )
+        term = BalanceTerm(
+            f"discovered_{self.target.replace('->', '_to_')}", formula, self.unit, dict(self.targets),
+            lambda v, k, q: correction(v, q, None),
+        )  # fmt: skip
+        return model.with_terms(term, model_name=model.name)
+
+    @staticmethod
+    def formula(features: Sequence[Feature], coefficients: Sequence[float], own: str = "own") -> str:
+        """The correction as text, e.g. ``-1.2e+04 + 38.5*(x6 - 970)``."""
+        parts = []
+        for f, c in zip(features, coefficients, strict=True):
+            name = f.name.replace("own", own)
+            parts.append(f"{c:.4g}" if name == "1" else f"{c:.4g}*{name}")
+        return " + ".join(parts).replace("+ -", "- ") or "0"
+
+
+#: On a tie, which kind is named first: an added flow reads as physics unless the data
+#: need the part's own value (a relative correction), which then wins the BIC anyway.
+PREFERENCE = {"term": 0, "transfer": 1, "part": 2}
+
+
+def candidate_hypotheses(model: CellModel) -> list[Hypothesis]:
+    """Every part, every balance, and every pair of balances of the same unit."""
+    hypotheses = [Hypothesis(f"part:{name}", "part", name, model.parts[name].unit) for name in PART_ORDER]
+    for balance, (_, unit) in BALANCES.items():
+        hypotheses.append(Hypothesis(f"term:{balance}", "term", balance, unit, {balance: 1.0}))
+    names = list(BALANCES)
+    for i, source in enumerate(names):
+        for sink in names[i + 1 :]:
+            if BALANCES[source][1] == BALANCES[sink][1]:
+                hypotheses.append(
+                    Hypothesis(
+                        f"transfer:{source}->{sink}",
+                        "transfer",
+                        f"{source}->{sink}",
+                        BALANCES[source][1],
+                        {source: -1.0, sink: 1.0},
+                    )
+                )
+    return hypotheses

@@ -1,0 +1,123 @@
+"""Candidate terms for a closed-form correction, in the model's own variables.
+
+Every feature is a readable expression of physical variables, centred at a nominal
+operating point so that coefficients are interpretable (``(x6 - 970)`` is the bath
+temperature's deviation from 970 degC).  A correction is sum_k xi_k theta_k, with
+xi_k in the unit of what it corrects: degC for the liquidus temperature, W for a
+heat flow, kg/s for a mass flow.  For a part, "relative" features multiply by the
+part's own value (``own * (c3 - 0.11)``: the part changes in proportion to itself),
+which is how a coefficient that depends on a state shows up.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from itertools import combinations_with_replacement, product
+
+import numpy as np
+
+from ..physics import CellVariables
+
+__all__ = ["Feature", "feature_library"]
+
+
+@dataclass(frozen=True)
+class Feature:
+    """theta(v, q, own): a named candidate term; ``own`` is the corrected part's value (parts only).
+
+    ``needs`` names the model quantities it reads, so that a part's correction never
+    reads the part itself or a part computed after it.
+    """
+
+    name: str
+    fn: Callable
+    needs: frozenset[str] = frozenset()
+
+    @property
+    def reads_flow_inputs(self) -> bool:
+        return any(f"{u}*" in self.name or self.name.endswith(u) for u in FLOW_INPUTS)
+
+    def __call__(self, v: CellVariables, q, own):
+        return self.fn(v, q, own)
+
+
+#: variables read from the model's quantities rather than the states and inputs
+_NEEDS = {"superheat": frozenset({"liquidus_temperature"})}
+#: the feed and tapping flows: a correction of a flow may depend on them, a material
+#: property (a liquidus temperature, a conductivity) may not
+FLOW_INPUTS = ("u1", "u3", "u4")
+#: name -> (nominal value, how to read it from the cell variables and quantities)
+_VARIABLES: dict[str, tuple[float, Callable]] = {
+    "c2": (0.03, lambda v, q: v.c2),
+    "c3": (0.11, lambda v, q: v.c3),
+    "x6": (970.0, lambda v, q: v.x6),
+    "x7": (820.0, lambda v, q: v.x7),
+    "x8": (580.0, lambda v, q: v.x8),
+    "x1": (3000.0, lambda v, q: v.x1),
+    "m": (16000.0, lambda v, q: v.m),
+    "u2": (140000.0, lambda v, q: v.u2),
+    "u5": (0.05, lambda v, q: v.u5),
+    "u1": (0.0, lambda v, q: v.u1),
+    "u3": (0.0, lambda v, q: v.u3),
+    "u4": (0.0, lambda v, q: v.u4),
+    "superheat": (0.0, lambda v, q: v.x6 - q["liquidus_temperature"]),
+}
+#: squares, and products of the bath's state variables with each other and with the
+#: flow drivers (an efficiency that varies multiplies a flow by a function of conditions)
+_SQUARED = ("c2", "c3", "x6", "u2")
+_STATE_PRODUCTS = (("c2", "c3"), ("c2", "x6"), ("c3", "x6"))
+_DRIVERS = ("u1", "u2", "u3")
+_CONDITIONS = ("c2", "c3", "x6", "superheat")
+
+
+def _centred(name: str) -> tuple[str, Callable]:
+    nominal, read = _VARIABLES[name]
+    label = name if nominal == 0 else f"({name} - {nominal:g})"
+    return label, lambda v, q, read=read, nominal=nominal: read(v, q) - nominal
+
+
+#: variables whose squares and pairwise products form the richer library of later rounds
+_RICH = ("c2", "c3", "x6", "x7", "x8", "x1", "m", "u2", "u5", "superheat")
+
+
+def feature_library(relative: bool, rich: bool = False) -> list[Feature]:
+    """The candidate terms: constant, linear, squares, products of state variables and of
+    flow drivers with conditions, and (``relative``) the constant and linear terms times
+    the part's own value.  ``rich`` adds every square and pairwise product of the main
+    variables (and, relative, those times the part's own value): for a later round, when
+    a simpler closed form left the same equations disagreeing."""
+    linear = {name: _centred(name) for name in _VARIABLES}
+    needs = {name: _NEEDS.get(name, frozenset()) for name in _VARIABLES}
+    features = [Feature("1", lambda v, q, own: v.xp.ones_like(v.x1))]
+    features += [Feature(label, lambda v, q, own, f=f: f(v, q), needs[name]) for name, (label, f) in linear.items()]
+    for name in _SQUARED:
+        label, f = linear[name]
+        features.append(Feature(f"{label}^2", lambda v, q, own, f=f: f(v, q) ** 2, needs[name]))
+    for a, b in [*_STATE_PRODUCTS, *product(_DRIVERS, _CONDITIONS)]:
+        (la, fa), (lb, fb) = linear[a], linear[b]
+        features.append(Feature(f"{la}*{lb}", lambda v, q, own, fa=fa, fb=fb: fa(v, q) * fb(v, q), needs[a] | needs[b]))
+    if relative:
+        features.append(Feature("own", lambda v, q, own: own))
+        features += [
+            Feature(f"own*{label}", lambda v, q, own, f=f: own * f(v, q), needs[name])
+            for name, (label, f) in linear.items()
+        ]
+    if rich:
+        names = {f.name for f in features}
+        for a, b in combinations_with_replacement(_RICH, 2):
+            (la, fa), (lb, fb) = linear[a], linear[b]
+            label = f"{la}^2" if a == b else f"{la}*{lb}"
+            need = needs[a] | needs[b]
+            if label not in names:
+                features.append(Feature(label, lambda v, q, own, fa=fa, fb=fb: fa(v, q) * fb(v, q), need))
+            if relative:
+                features.append(
+                    Feature(f"own*{label}", lambda v, q, own, fa=fa, fb=fb: own * fa(v, q) * fb(v, q), need)
+                )
+    return features
+
+
+def evaluate(features: list[Feature], v: CellVariables, q, own) -> np.ndarray:
+    """All features at once (..., P)."""
+    return np.stack([np.broadcast_to(np.asarray(f(v, q, own), dtype=float), v.x1.shape) for f in features], axis=-1)

@@ -1,0 +1,48 @@
+"""CoSTA as a reference: a network correction of the starting model, trained on the same data."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from .. import seeds
+from ..data import arrays
+from ..forecast import rollout_networks
+from ..metrics import EvaluationSettings, state_scale
+from ..models import NetworkModel
+from ..physics import CellModel
+from ..train import ModelType, TrainingSettings, train_ensemble, training_data
+from .gap import gap_tables
+
+__all__ = ["costa_reference"]
+
+
+def costa_reference(
+    config: Mapping, train: pd.DataFrame, held_out: pd.DataFrame, start: CellModel, name: str
+) -> pd.DataFrame:
+    """Train a small CoSTA ensemble on ``train`` with ``start`` as its physics; its gap on ``held_out``."""
+    reference = config["discovery"]["costa_reference"]
+    training = {
+        **config["training"],
+        "instances": reference["instances"],
+        "epochs": reference["epochs"],
+        "compile": False,
+    }
+    settings = TrainingSettings.from_config(training)
+    x, u = arrays(train)
+    xh, uh = arrays(held_out)
+    dt = float(np.diff(train["time_s"].to_numpy()[:2])[0])
+    data = training_data(x, u, dt, "costa", start)
+    model_type = ModelType("costa_reference", "costa", 0.0)
+    init = [
+        seeds.torch_generator(config["seed"], 0, f"discovery/{name}/costa/init", i) for i in range(settings.instances)
+    ]
+    shuffle = seeds.torch_generator(config["seed"], 0, f"discovery/{name}/costa/shuffle")
+    ensemble, _ = train_ensemble(data, model_type, settings, init, shuffle)
+    network = NetworkModel(model_type, ensemble, data.normalisation, start, {})
+    forecasts = rollout_networks(network, xh, uh, dt, config["evaluation"]["copied_samples"]["networks"])
+    evaluation = EvaluationSettings.from_config(config["evaluation"])
+    gap, _ = gap_tables({"CoSTA reference": forecasts}, xh, uh, dt, state_scale(x), evaluation)
+    return gap

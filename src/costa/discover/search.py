@@ -1,0 +1,376 @@
+"""The discovery loop: test the equations, rank explanations, fit a closed form, correct, repeat.
+
+One round:
+
+1. residuals of the current model in weak form, and a chi-square test per equation
+   against the noise (:mod:`.weak_form`); nothing flagged -> stop, nothing invented;
+2. every hypothesis (:mod:`.hypotheses`) is screened by how much of the residual a
+   free delta(t) along its sensitivity explains; the promising ones get a sparse
+   closed form from the term library (:mod:`.library`, :mod:`.regression`), refined
+   by Gauss-Newton on the exact residual (a wrong liquidus temperature enters the
+   energy balances squared) and re-selected at the refined point until the terms
+   settle; terms that a bootstrap re-selects in fewer than half the resamples go;
+3. candidates are ranked by the BIC gain of their correction on the exact residual;
+   among those within ``equivalence`` of the best (a difference the data cannot
+   call strong) the simplest is named (fewest terms, then a flow before a part
+   correction, then the most elementary part); the others are reported as
+   equivalent explanations, the rest as runners-up;
+4. the named correction must remove a material share of the excess and gain enough
+   BIC; its coefficients get intervals and inclusion frequencies from a bootstrap
+   over blocks of trajectories; the corrected model goes into the next round.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from ..physics import CellModel, CellVariables
+from ..variables import STATES
+from .hypotheses import PREFERENCE, Hypothesis, candidate_hypotheses
+from .library import Feature
+from .regression import GramSystem, _solve, bootstrap
+from .weak_form import EquationTest, WeakForm, equation_tests, estimate_noise
+
+__all__ = ["Candidate", "DiscoverySettings", "Round", "discover"]
+
+
+@dataclass(frozen=True)
+class DiscoverySettings:
+    """How discovery decides; the same for every data set (see the config schema)."""
+
+    window: int = 64  # steps per weak-form window
+    z_threshold: float = 6.0  # an equation disagrees if its chi-square excess is this many standard errors ...
+    min_excess: float = 0.1  # ... and at least this share of the noise variance
+    max_terms: int = 8  # terms in a closed form
+    min_gain: float = 10.0  # BIC gain a term (and a correction) must bring
+    min_explained: float = 0.5  # share of the excess residual a correction must remove
+    screen_keep: int = 8  # hypotheses that get a closed-form fit after screening (plus ties)
+    min_screen: float = 0.05  # ... if a free delta along them explains at least this share
+    refine_iterations: int = 8  # Gauss-Newton iterations
+    screen_bootstrap: int = 50  # resamples for stability selection of each fitted candidate
+    bootstrap: int = 200  # resamples for the chosen correction's intervals and inclusion frequencies
+    blocks_per_trajectory: int = 4  # bootstrap groups: each trajectory cut into this many blocks
+    max_rounds: int = 3
+    noise_draws: int = 8  # Monte Carlo draws for the residual's noise scale
+    equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
+    seed: int = 0
+
+
+@dataclass
+class Candidate:
+    """A hypothesis with its fitted closed form."""
+
+    hypothesis: Hypothesis
+    features: list[Feature]
+    coefficients: np.ndarray
+    bic_gain: float = 0.0
+    explained: float = 0.0
+    chi2_after: dict[str, float] = field(default_factory=dict)
+    corrected: CellModel | None = None
+
+    @property
+    def formula(self) -> str:
+        return Hypothesis.formula(self.features, self.coefficients)
+
+
+@dataclass
+class Round:
+    """What one round found (or that it found nothing); ``rich``: it used the larger library."""
+
+    model: CellModel
+    tests: list[EquationTest]
+    where: dict[str, list[tuple[str, float]]]
+    ranking: list[Candidate]
+    chosen: Candidate | None
+    equivalent: list[Candidate]
+    inclusion: dict[str, float]
+    intervals: list[tuple[float, float]]
+    verdict: str
+    rich: bool = False
+
+    @property
+    def flagged(self) -> list[str]:
+        return [t.state for t in self.tests if t.flagged]
+
+
+def _groups(n: int, windows: int, blocks: int) -> np.ndarray:
+    """Group label of each (trajectory, window): trajectories cut into ``blocks`` pieces."""
+    per_block = max(1, int(np.ceil(windows / blocks)))
+    return (np.arange(n)[:, None] * blocks + np.arange(windows)[None, :] // per_block).ravel()
+
+
+class _Problem:
+    """The data, the weak form and the noise scale shared by every fit of a round."""
+
+    def __init__(self, x: np.ndarray, u: np.ndarray, form: WeakForm, scale: np.ndarray, settings: DiscoverySettings):
+        self.x, self.u, self.form, self.scale = x, u, form, scale
+        self.left_x, self.left_u = x[:, :-1], u[:, :-1]
+        windows = form.windows(x.shape[1])
+        self.groups = np.repeat(_groups(x.shape[0], windows, settings.blocks_per_trajectory), 8)
+
+    def standardised_residual(self, model: CellModel) -> np.ndarray:
+        return self.form.residual(model, self.x, self.u) / self.scale
+
+    def design(
+        self,
+        hypothesis: Hypothesis,
+        model: CellModel,
+        features: Sequence[Feature],
+        sensitivity_at: CellModel | None = None,
+    ) -> np.ndarray:
+        """d(standardised residual)/d(xi) (rows, P): minus the windowed sensitivity times each term.
+
+        The terms are evaluated with ``model`` (a part's own value is its value there);
+        the sensitivity at ``sensitivity_at`` if given (a better linearisation point).
+        """
+        sensitivity = hypothesis.sensitivity(sensitivity_at or model, self.left_x, self.left_u)
+        a = sensitivity.shape[1] // self.form.window
+        cut = a * self.form.window
+        blocks = []
+        for start in range(0, sensitivity.shape[0], 8):  # trajectories in chunks: the terms are large
+            chunk = slice(start, start + 8)
+            theta = hypothesis.feature_values(model, features, self.left_x[chunk], self.left_u[chunk])
+            s = sensitivity[chunk, :cut].reshape(-1, a, self.form.window, 8)
+            t = theta[:, :cut].reshape(s.shape[0], a, self.form.window, -1)
+            blocks.append(np.einsum("naws,nawp,w->nasp", s, t, self.form.weights(), optimize=True))
+        design = np.concatenate(blocks) / self.scale[..., None]
+        return np.nan_to_num(design.reshape(-1, design.shape[-1]), nan=0.0, posinf=0.0, neginf=0.0)
+
+    def screen(self, hypothesis: Hypothesis, model: CellModel, z: np.ndarray) -> float:
+        """Share of sum z^2 a free delta per window along this hypothesis' sensitivity removes."""
+        sensitivity = self.form.average(hypothesis.sensitivity(model, self.left_x, self.left_u)) / self.scale
+        sensitivity = np.nan_to_num(sensitivity)
+        numerator, denominator = (sensitivity * z).sum(-1), (sensitivity**2).sum(-1)
+        delta = np.divide(numerator, denominator, out=np.zeros_like(numerator), where=denominator > 0)
+        left = ((z - delta[..., None] * sensitivity) ** 2).sum()
+        return 1 - left / (z**2).sum()
+
+
+def _chi2(z: np.ndarray) -> dict[str, float]:
+    flat = z.reshape(-1, 8)
+    return {name: float(np.mean(flat[:, i] ** 2)) for i, name in enumerate(STATES)}
+
+
+def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int):
+    """Stage 1: the delta (n, A) each window needs along the hypothesis' sensitivity, its
+    information (n, A) (inverse variance), and the model shifted by it.  A part may enter
+    nonlinearly (g1 appears squared), so the estimates are iterated, the sensitivity
+    re-evaluated at the shifted model."""
+    n, a = problem.x.shape[0], problem.form.windows(problem.x.shape[1])
+    per_sample = np.zeros(problem.left_x.shape[:2])
+    delta = np.zeros((n, a))
+    shifted = model
+    for _ in range(iterations if h.kind == "part" else 1):
+        z = problem.standardised_residual(shifted)
+        sensitivity = np.nan_to_num(
+            problem.form.average(h.sensitivity(shifted, problem.left_x, problem.left_u)) / problem.scale
+        )
+        information = (sensitivity**2).sum(-1)
+        step = np.divide(
+            (sensitivity * np.nan_to_num(z)).sum(-1), information, out=np.zeros_like(information), where=information > 0
+        )
+        delta += step
+        per_sample[:, : a * problem.form.window] = np.repeat(delta, problem.form.window, axis=1)
+        per_sample[:, a * problem.form.window :] = delta[:, -1:]
+        shifted = h.shifted(model, per_sample)
+        if np.abs(step).max() <= 1e-3 * (np.abs(delta).max() + 1e-12):
+            break
+    return delta, information, shifted
+
+
+def _explain(problem: _Problem, h: Hypothesis, model: CellModel, measured, features: list[Feature]):
+    """Stage 2's normal equations: each window's delta against the terms averaged the way the
+    window sees them (weighted by the sensitivity within it), weighted by the information.
+
+    Returns the Gram system and the indices of the terms kept: a term that duplicates an
+    earlier one (a relative term of a constant part, say) or is zero everywhere is dropped.
+    """
+    delta, information, shifted = measured
+    n, a = delta.shape
+    design = problem.design(h, model, features, sensitivity_at=shifted).reshape(n, a, 8, -1)
+    sensitivity = np.nan_to_num(
+        problem.form.average(h.sensitivity(shifted, problem.left_x, problem.left_u)) / problem.scale
+    )
+    projected = np.einsum("nas,nasp->nap", sensitivity, design) / np.where(information > 0, information, 1)[..., None]
+    weight = np.sqrt(information)[..., None]
+    rows = (projected * weight).reshape(-1, len(features))
+    kept = _independent(rows)
+    system = GramSystem.from_design(rows[:, kept], (delta * weight[..., 0]).ravel(), problem.groups[::8])
+    return system, kept
+
+
+def _independent(columns: np.ndarray, tolerance: float = 1e-8) -> list[int]:
+    """Indices of columns that are not zero and not (nearly) a multiple of an earlier one."""
+    norms = np.linalg.norm(columns, axis=0)
+    kept: list[int] = []
+    for j in np.flatnonzero(norms > 0):
+        unit = columns[:, j] / norms[j]
+        if all(abs(unit @ columns[:, i] / norms[i]) < 1 - tolerance for i in kept):
+            kept.append(int(j))
+    return kept
+
+
+def _gauss_newton(problem: _Problem, h: Hypothesis, model: CellModel, features: list[Feature], xi, iterations: int):
+    """Stage 3: the selected terms' coefficients minimising the exact residual."""
+    xi = np.array(xi, dtype=float)
+    for _ in range(iterations if features else 0):
+        corrected = h.corrected(model, features, xi)
+        z = problem.standardised_residual(corrected)
+        if not np.isfinite(z).all():
+            break
+        step, *_ = np.linalg.lstsq(problem.design(h, corrected, features), z.ravel(), rcond=None)
+        xi = xi + step
+        if np.all(np.abs(step) <= 1e-5 * (np.abs(xi) + 1e-12)):
+            break
+    return xi
+
+
+def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: DiscoverySettings, rng, rich: bool = False):
+    """Measure delta per window (stage 1), select a closed form by stability: the terms a
+    bootstrap of the forward selection picks in at least half the resamples and whose
+    coefficient's 95 % interval excludes zero (stage 2), then refine their coefficients on
+    the exact residual (stage 3)."""
+    library = h.features(rich)
+    system, kept = _explain(problem, h, model, _measure(problem, h, model, settings.refine_iterations), library)
+    selection = {"max_terms": settings.max_terms, "min_gain": settings.min_gain}
+    inclusion, _ = bootstrap(system, [], settings.screen_bootstrap, rng, **selection)
+    stable = [i for i in range(len(kept)) if inclusion[i] >= 0.5]
+    # ... and significant: a term whose 99 % interval covers zero is not reported as physics
+    # (stricter than the 95 % intervals reported, which use other resamples)
+    _, samples = bootstrap(system, stable, settings.screen_bootstrap, rng, **selection)
+    low, high = np.nanquantile(samples, [0.005, 0.995], axis=0) if stable else (np.zeros(0), np.zeros(0))
+    stable = [i for i, lo, hi in zip(stable, low, high, strict=True) if lo > 0 or hi < 0]
+    G, b, _, _ = system.total()
+    start = _solve(G, b, stable)
+    features = [library[kept[i]] for i in stable]
+    xi = _gauss_newton(problem, h, model, features, start, settings.refine_iterations)
+    return Candidate(h, features, xi), (system, [library[i] for i in kept])
+
+
+def _score(
+    problem: _Problem, candidate: Candidate, model: CellModel, z0: np.ndarray, flagged: Sequence[int]
+) -> Candidate:
+    """The exact residual of the corrected model: BIC gain and the share of the excess it removes."""
+    h, features, xi = candidate.hypothesis, candidate.features, candidate.coefficients
+    corrected = h.corrected(model, features, xi) if features else model
+    z = problem.standardised_residual(corrected)
+    rows, rss0 = z0.size, float((z0**2).sum())
+    rss = float((z**2).sum()) if np.isfinite(z).all() else np.inf
+    gain = rows * np.log(rss0 / rss) - len(features) * np.log(rows) if np.isfinite(rss) else -np.inf
+    before, after = _chi2(z0), _chi2(z) if np.isfinite(rss) else dict.fromkeys(STATES, np.inf)
+    excess_before = sum(max(before[STATES[i]] - 1, 0) for i in flagged)
+    excess_after = sum(max(after[STATES[i]] - 1, 0) for i in flagged)
+    explained = 1 - excess_after / excess_before if excess_before > 0 else 0.0
+    return Candidate(h, features, xi, float(gain), float(explained), after, corrected)
+
+
+def _where(
+    problem: _Problem, model: CellModel, z: np.ndarray, flagged: Sequence[int]
+) -> dict[str, list[tuple[str, float]]]:
+    """For each flagged equation, the operating variables its residual correlates with most."""
+    v = CellVariables(problem.left_x, problem.left_u)
+    with np.errstate(all="ignore"):
+        q = model.quantities(problem.left_x, problem.left_u)
+    variables = {
+        "c2 (Al2O3 fraction)": v.c2, "c3 (AlF3 fraction)": v.c3, "x6 (bath temperature)": v.x6,
+        "x7 (ledge temperature)": v.x7, "x8 (wall temperature)": v.x8, "x1 (ledge mass)": v.x1,
+        "u2 (line current)": v.u2, "u5 (anode-cathode distance)": v.u5,
+        "superheat x6 - g1": v.x6 - q["liquidus_temperature"],
+    }  # fmt: skip
+    means = {name: problem.form.average(values[..., None])[..., 0].ravel() for name, values in variables.items()}
+    where = {}
+    for i in flagged:
+        residual = z[..., i].ravel()
+        correlations = [(name, float(spearmanr(values, residual).statistic)) for name, values in means.items()]
+        where[STATES[i]] = sorted(correlations, key=lambda item: -abs(item[1]))[:4]
+    return where
+
+
+def _simplicity(candidate: Candidate) -> tuple:
+    """Among equally good explanations: fewest terms, then an added flow before a part
+    correction, then the most elementary (earliest computed) part."""
+    from ..physics import PART_ORDER
+
+    h = candidate.hypothesis
+    return (len(candidate.features), PREFERENCE[h.kind], PART_ORDER.index(h.target) if h.kind == "part" else 0)
+
+
+def discover_round(
+    model: CellModel, problem: _Problem, settings: DiscoverySettings, rng: np.random.Generator, rich: bool = False
+) -> Round:
+    """One round on the current model (see the module docstring); ``rich``: the larger term library."""
+    z0 = problem.standardised_residual(model)
+    tests = equation_tests(z0 * problem.scale, problem.scale, settings.z_threshold, settings.min_excess)
+    flagged = [i for i, t in enumerate(tests) if t.flagged]
+    if not flagged:
+        return Round(model, tests, {}, [], None, [], {}, [], "no equation disagrees with the data beyond noise", rich)
+    hypotheses = candidate_hypotheses(model)
+    screened = sorted(((problem.screen(h, model, z0), h) for h in hypotheses), key=lambda item: -item[0])
+    # hypotheses with the same sensitivity tie exactly: keep ties together
+    cut = screened[min(settings.screen_keep, len(screened)) - 1][0] - 1e-3
+    keep = [h for share, h in screened if share >= max(cut, settings.min_screen)]
+    fitted = [_fit(problem, h, model, settings, rng, rich) for h in keep]
+    systems = {c.hypothesis.key: system for c, system in fitted}
+    ranking = [_score(problem, c, model, z0, flagged) for c, _ in fitted]
+    ranking.sort(key=lambda c: -c.bic_gain)
+    good = [c for c in ranking if c.features and c.bic_gain >= ranking[0].bic_gain - settings.equivalence]
+    where = _where(problem, model, z0, flagged)
+    if not good or good[0].explained < settings.min_explained or good[0].bic_gain < settings.min_gain:
+        best = ranking[0]
+        verdict = (
+            f"equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate explains it: the best, "
+            f"{best.hypothesis.key}, removes {best.explained:.0%} of the excess residual"
+        )
+        return Round(model, tests, where, ranking, None, [], {}, [], verdict, rich)
+    good.sort(key=_simplicity)
+    chosen, equivalent = good[0], good[1:]
+    inclusion, intervals = _uncertainty(systems[chosen.hypothesis.key], chosen, settings, rng)
+    verdict = (
+        f"{chosen.hypothesis.describe(model)}; the correction removes {chosen.explained:.0%} of the excess residual"
+    )
+    return Round(model, tests, where, ranking, chosen, equivalent, inclusion, intervals, verdict, rich)
+
+
+def _uncertainty(stage2, chosen: Candidate, settings: DiscoverySettings, rng):
+    """Bootstrap over blocks of trajectories of the stage-2 regression: how often each term is
+    re-selected, and 95 % intervals of the chosen terms' coefficients (shifted to the refined values)."""
+    system, features = stage2
+    names = [f.name for f in features]
+    index = [names.index(f.name) for f in chosen.features]
+    inclusion, samples = bootstrap(
+        system, index, settings.bootstrap, rng, max_terms=settings.max_terms, min_gain=settings.min_gain
+    )
+    G, b, _, _ = system.total()
+    centre = _solve(G, b, index)
+    samples = samples - centre + chosen.coefficients
+    intervals = [tuple(float(v) for v in np.nanquantile(samples[:, j], [0.025, 0.975])) for j in range(len(index))]
+    return {name: float(p) for name, p in zip(names, inclusion, strict=True) if p > 0}, intervals
+
+
+def discover(
+    model: CellModel, x: np.ndarray, u: np.ndarray, dt: float, settings: DiscoverySettings
+) -> tuple[list[Round], np.ndarray]:
+    """Rounds of discovery until no equation disagrees, nothing explains it, or ``max_rounds``.
+
+    Returns the rounds and the estimated measurement noise (8,).
+    """
+    rng = np.random.default_rng(settings.seed)
+    noise = estimate_noise(x)
+    form = WeakForm(settings.window, dt)
+    rounds: list[Round] = []
+    current = model
+    rich = False
+    for _ in range(settings.max_rounds):
+        scale = form.noise_scale(current, x, u, noise, rng, settings.noise_draws)
+        found = discover_round(current, _Problem(x, u, form, scale, settings), settings, rng, rich)
+        rounds.append(found)
+        if found.chosen is None:
+            break
+        current = found.chosen.corrected
+        # a closed form that leaves its own equations disagreeing: try richer forms next
+        rich = any(found.chosen.chi2_after[s] - 1 > settings.min_excess for s in found.flagged)
+    return rounds, noise

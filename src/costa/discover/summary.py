@@ -1,0 +1,56 @@
+"""The discovery cases side by side: what was hidden, what was found, the gap before and after."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import pandas as pd
+
+__all__ = ["discovery_summary"]
+
+
+def discovery_summary(
+    findings_paths: Sequence[str | Path], costa_paths: Sequence[str | Path], window: str = "long"
+) -> pd.DataFrame:
+    """One row per case (``costa_paths`` in the same order as ``findings_paths``)."""
+    rows = []
+    for path, costa_path in zip(findings_paths, costa_paths, strict=True):
+        f = json.loads(Path(path).read_text())
+        errors = {(e["model"], e["window"]): e["error"] for e in f["gap"]["errors"]}
+        costa = pd.read_parquet(costa_path).set_index("window")["error"]
+        named = [r["named"] for r in f["rounds"] if r["named"]]
+        rows.append(
+            {
+                "case": f["case"],
+                "hidden": f.get("hidden", ""),
+                "expected_equations": " ".join(f.get("expected_equations", [])),
+                "flagged_equations": " ".join(f["flagged_equations"]),
+                "named": " then ".join(n["hypothesis"] for n in named) or "nothing",
+                "correct": _correct(f),
+                "closed_form": " | ".join(n["closed_form"] for n in named),
+                "error_before": errors.get(("starting model", window)),
+                "error_after": errors.get(("corrected model", window), errors.get(("starting model", window))),
+                "error_costa_reference": float(costa.get(window, float("nan"))),
+                "noise_floor": f["gap"]["noise_floor"][window],
+                "shrink": f["gap"]["shrink"].get(window, 0.0),
+                "shrink_above_noise_floor": f["gap"]["shrink_above_noise_floor"].get(window, 0.0),
+                "rounds": len(f["rounds"]),
+                "discovery_seconds": f["discovery_seconds"],
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _correct(f) -> bool | None:
+    """For a shipped case: the expected equations flagged and an accepted explanation named first."""
+    if "accepted" not in f:
+        return None
+    if not f["accepted"]:
+        return not f["named"] and not f["flagged_equations"]
+    return (
+        set(f["flagged_equations"]) == set(f["expected_equations"])
+        and bool(f["named"])
+        and f["named"][0] in f["accepted"]
+    )

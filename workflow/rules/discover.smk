@@ -1,0 +1,141 @@
+rule discovery_case_data:
+    """Simulate a shipped case with its hidden effect and add measurement noise."""
+    input:
+        code=DISCOVERY_CODE,
+    output:
+        train="results/discovery/{case}/data/train.parquet",
+        held_out="results/discovery/{case}/data/held_out.parquet",
+    log:
+        "results/discovery/{case}/logs/data.log",
+    benchmark:
+        "results/discovery/{case}/benchmarks/data.tsv"
+    wildcard_constraints:
+        case="|".join(SHIPPED_CASES) or "^$",
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=discovery_config,
+    script:
+        "../scripts/discovery_case_data.py"
+
+
+rule discovery_user_data:
+    """Split your own measurements into trajectories to learn from and held-out ones."""
+    input:
+        measurements=lambda wildcards: config["discovery"]["user_data"]["path"],
+    output:
+        train="results/discovery/{case}/data/train.parquet",
+        held_out="results/discovery/{case}/data/held_out.parquet",
+    log:
+        "results/discovery/{case}/logs/data.log",
+    wildcard_constraints:
+        case=USER_CASE or "^$",
+    conda:
+        ENV
+    threads: 1
+    params:
+        fraction=lambda wildcards: config["discovery"]["user_data"]["held_out_fraction"],
+    script:
+        "../scripts/discovery_user_data.py"
+
+
+rule discover:
+    """Find which equations disagree with the data, name the missing effect, correct the
+    model and measure the gap before and after on held-out trajectories."""
+    input:
+        train="results/discovery/{case}/data/train.parquet",
+        held_out="results/discovery/{case}/data/held_out.parquet",
+        code=DISCOVERY_CODE,
+    output:
+        findings=report(
+            "results/discovery/{case}/findings.json",
+            category="Discovery",
+            caption="../report/captions/discovery.rst",
+        ),
+        markdown="results/discovery/{case}/findings.md",
+        gap="results/discovery/{case}/gap.parquet",
+        per_state="results/discovery/{case}/per_state_errors.parquet",
+    log:
+        "results/discovery/{case}/logs/discover.log",
+    benchmark:
+        "results/discovery/{case}/benchmarks/discover.tsv"
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=4000,
+    params:
+        config=discovery_config,
+        meta=discovery_meta,
+        starting_model=starting_model_name,
+    script:
+        "../scripts/discover.py"
+
+
+rule discovery_costa_reference:
+    """A CoSTA network correction of the same starting model, trained on the same data."""
+    input:
+        train="results/discovery/{case}/data/train.parquet",
+        held_out="results/discovery/{case}/data/held_out.parquet",
+        code=DISCOVERY_CODE + TRAINING_CODE,
+    output:
+        gap="results/discovery/{case}/costa_reference_gap.parquet",
+    log:
+        "results/discovery/{case}/logs/costa_reference.log",
+    benchmark:
+        "results/discovery/{case}/benchmarks/costa_reference.tsv"
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=discovery_config,
+        starting_model=starting_model_name,
+    script:
+        "../scripts/discovery_costa_reference.py"
+
+
+rule plot_discovery:
+    """Equations' disagreement round by round, and the gap before and after."""
+    input:
+        findings="results/discovery/{case}/findings.json",
+        gap="results/discovery/{case}/gap.parquet",
+        costa="results/discovery/{case}/costa_reference_gap.parquet",
+        code=package_files("plots"),
+    output:
+        png=report(
+            "results/discovery/{case}/discovery.png",
+            category="Discovery",
+            caption="../report/captions/discovery.rst",
+        ),
+    log:
+        "results/discovery/{case}/logs/plot.log",
+    conda:
+        ENV
+    threads: 1
+    script:
+        "../scripts/plot_discovery.py"
+
+
+rule collect_discovery:
+    """One row per case: what was hidden, what was found, the gap before and after."""
+    input:
+        findings=expand("results/discovery/{case}/findings.json", case=DISCOVERY_CASES),
+        costa=expand(
+            "results/discovery/{case}/costa_reference_gap.parquet",
+            case=DISCOVERY_CASES,
+        ),
+        code=package_files("discover"),
+    output:
+        summary=report(
+            "results/discovery/summary.csv",
+            category="Discovery",
+            caption="../report/captions/discovery_summary.rst",
+        ),
+    log:
+        "results/discovery/logs/collect.log",
+    conda:
+        ENV
+    threads: 1
+    script:
+        "../scripts/collect_discovery.py"

@@ -1,0 +1,29 @@
+"""Run discovery on one data set and write its findings and gap tables."""
+
+import json
+
+from costa import runtime
+from costa.data import load_trajectories
+from costa.discover.findings import findings, findings_markdown
+from costa.discover.pipeline import run_discovery, starting_model
+
+log = runtime.configure(snakemake)
+config, case = snakemake.params.config, snakemake.wildcards.case
+start = starting_model(config, snakemake.params.starting_model)
+train, held_out = load_trajectories(snakemake.input.train), load_trajectories(snakemake.input.held_out)
+result = run_discovery(config, train, held_out, start, case, snakemake.input.train)
+found = findings(result, case, start, snakemake.params.meta)
+with open(snakemake.output.findings, "w") as handle:
+    json.dump(found, handle, indent=1)
+with open(snakemake.output.markdown, "w") as handle:
+    handle.write(findings_markdown(found))
+result.gap.to_parquet(snakemake.output.gap, index=False)
+result.per_state.to_parquet(snakemake.output.per_state, index=False)
+log.info(
+    "%s: %s, named %s in %.1f s; shrink %s",
+    case,
+    found["outcome"],
+    found["named"],
+    result.seconds,
+    found["gap"]["shrink"],
+)
