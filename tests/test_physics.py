@@ -220,3 +220,43 @@ def test_printed_variant_reads_the_alumina_feed_in_g3_and_drops_k9(rng):
     dx7_printed_wall_only = code.rhs(x, u)[:, 6] + k.beta / x[:, 0] * q["ledge_wall_heat"] - wall_printed
     printed_same_g3 = printed.with_part("bubble_coverage", code.parts["bubble_coverage"])
     np.testing.assert_allclose(printed_same_g3.rhs(x, u)[:, 6], dx7_printed_wall_only, rtol=1e-10)
+
+
+@pytest.mark.parametrize(
+    ("prop", "material_field"),
+    [
+        ("ledge_conductivity", "ledge_conductivity"),
+        ("wall_conductivity", "wall_conductivity"),
+        ("bath_ledge_heat_transfer", "bath_ledge_heat_transfer"),
+        ("wall_ambient_heat_transfer", "wall_ambient_heat_transfer"),
+        ("fusion_enthalpy", "cryolite_fusion_enthalpy"),
+        ("liquid_cryolite_heat_capacity", "liquid_cryolite_heat_capacity"),
+        ("solid_cryolite_heat_capacity", "solid_cryolite_heat_capacity"),
+    ],
+)
+def test_property_corrections_equal_rederiving_the_constants(model, rng, prop, material_field):
+    """Scaling a property through its exponents = deriving every constant from the scaled material data."""
+    import dataclasses
+
+    from costa.physics import PROPERTIES, MaterialProperties, PropertyCorrection
+
+    x, u = random_operating_points(rng, 100)
+    corrected = model.with_property(PropertyCorrection(PROPERTIES[prop], "0.1", lambda v: 0.1 + 0 * v.x1))
+    material = MaterialProperties()
+    changed = dataclasses.replace(material, **{material_field: 1.1 * getattr(material, material_field)})
+    rederived = dataclasses.replace(model, params=authors_code_parameters(changed))
+    np.testing.assert_allclose(corrected.rhs(x, u), rederived.rhs(x, u), rtol=1e-12, atol=1e-15)
+
+
+def test_a_property_may_vary_with_the_state(model, rng):
+    from costa.physics import PROPERTIES, PropertyCorrection
+
+    x, u = random_operating_points(rng, 50)
+    varying = model.with_property(
+        PropertyCorrection(PROPERTIES["bath_heat_capacity"], "0.01 (x6 - 970)", lambda v: 0.01 * (v.x6 - 970))
+    )
+    np.testing.assert_allclose(
+        varying.rhs(x, u)[:, 5], model.rhs(x, u)[:, 5] / (1 + 0.01 * (x[:, 5] - 970)), rtol=1e-12
+    )
+    np.testing.assert_array_equal(varying.rhs(x, u)[:, :5], model.rhs(x, u)[:, :5])
+    assert "bath_heat_capacity x (1 + 0.01 (x6 - 970))" in varying.describe()

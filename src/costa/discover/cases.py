@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics import BalanceTerm, CellModel, ablated_model
+from ..physics import PROPERTIES, BalanceTerm, CellModel, PropertyCorrection, ablated_model
 
 __all__ = ["CASES", "HiddenEffectCase", "add_noise"]
 
@@ -66,14 +66,13 @@ def _alf3_evaporation(full: CellModel) -> CellModel:
 
 
 def _wall_conductivity(full: CellModel) -> CellModel:
-    """The wall's conductivity rises with its temperature: k_wall (1 + 0.004 (x8 - 580))."""
-    part = full.parts["ledge_wall_heat"]
+    """The wall's conductivity rises with its temperature: k_wall (1 + 0.004 (x8 - 580)).
 
-    def fn(v, k, q):
-        k14 = k.k14 / (1 + 0.004 * (v.x8 - 580.0))
-        return k.k9 * (v.x7 - v.x8) / (k14 + k.k15 * k.k0 * v.x1)
-
-    return full.with_part("ledge_wall_heat", part.renamed("k9 (x7 - x8)/(k14/(1 + 0.004 (x8 - 580)) + k15 k0 x1)", fn))
+    k_wall sets the wall's half resistance k14, which both the ledge-to-wall and the
+    wall-to-ambient heat flows go through.
+    """
+    change = PropertyCorrection(PROPERTIES["wall_conductivity"], "0.004 (x8 - 580)", lambda v: 0.004 * (v.x8 - 580.0))
+    return full.with_property(change, model_name="full+wall conductivity(x8)")
 
 
 def _alumina_dissolution(full: CellModel) -> CellModel:
@@ -138,7 +137,7 @@ CASES: dict[str, HiddenEffectCase] = {
             "full",
             0.01,
             ("x7", "x8"),
-            ("part:ledge_wall_heat", "transfer:ledge_energy->wall_energy"),
+            ("property:wall_conductivity",),
             _wall_conductivity,
         ),
         HiddenEffectCase(

@@ -7,7 +7,10 @@ known sensitivity J_h(x, u) (8,):
   derivative of dx/dt with respect to that value (numerically, at the current model);
 - ``term:<balance>``: a flow delta (kg/s or W) is missing from one balance; J is 1
   for a mass balance, alpha/m, beta/x1 or k17 for an energy balance;
-- ``transfer:<a>-><b>``: a flow leaves balance a and enters balance b (same unit).
+- ``transfer:<a>-><b>``: a flow leaves balance a and enters balance b (same unit);
+- ``property:<name>``: a physical property shared by several constants (a
+  conductivity, a heat capacity, the current efficiency) is off by a relative delta,
+  which rescales each constant it enters (:mod:`costa.physics.properties`).
 
 Hypotheses with the same J explain the data equally well; the closed form and, on a
 tie, :data:`PREFERENCE` decide which one is named (the others are reported as
@@ -16,12 +19,13 @@ equivalent).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics import BALANCES, PART_ORDER, BalanceTerm, CellModel, CellVariables
+from ..physics import BALANCES, PART_ORDER, PROPERTIES, BalanceTerm, CellModel, CellVariables, PropertyCorrection
 from .library import Feature, evaluate, feature_library
 
 __all__ = ["Hypothesis", "candidate_hypotheses"]
@@ -43,6 +47,8 @@ class Hypothesis:
             return f"the {part.name.replace('_', ' ')} {part.symbol} [{part.unit}] is not as modelled ({part.symbol} = {part.formula})"
         if self.kind == "term":
             return f"a flow [{self.unit}] is missing from the {self.target.replace('_', ' ')} balance"
+        if self.kind == "property":
+            return f"the {PROPERTIES[self.target].meaning} is not as modelled (a relative change, rescaling the constants it enters)"
         source, sink = self.target.split("->")
         return f"a flow [{self.unit}] from the {source.replace('_', ' ')} balance to the {sink.replace('_', ' ')} balance is missing"
 
@@ -50,14 +56,23 @@ class Hypothesis:
         """The term library.  A part's correction may read only the quantities computed before
         it, and a part that is not a flow (kg/s or W) may not depend on the feed and tapping flows."""
         library = feature_library(relative=self.kind == "part", rich=rich)
+        if self.kind == "property":  # a property of the materials: states and operating conditions only
+            return [f for f in library if not f.needs and not f.reads_flow_inputs]
         if self.kind != "part":
             return library
         available = set(PART_ORDER[: PART_ORDER.index(self.target)])
         is_flow = self.unit in ("kg/s", "W")
         return [f for f in library if f.needs <= available and (is_flow or not f.reads_flow_inputs)]
 
-    def sensitivity(self, model: CellModel, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """dx/dt per unit of delta (..., 8) at the current model."""
+    def sensitivity(self, model: CellModel, x: np.ndarray, u: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
+        """dx/dt per unit of delta (..., 8) at the current model; ``base`` = model.rhs(x, u) if known."""
+        if self.kind in ("part", "property"):
+            with np.errstate(all="ignore"):
+                base = model.rhs(x, u) if base is None else base
+        if self.kind == "property":
+            with np.errstate(all="ignore"):
+                bumped = self._with(model, lambda v, q, own: 1e-6, "1e-6")
+                return (bumped.rhs(x, u) - base) / 1e-6
         if self.kind != "part":
             per_flow = model.state_rate_per_flow(x, u)
             rates = np.zeros_like(per_flow)
@@ -70,7 +85,7 @@ class Hypothesis:
             value = model.quantities(x, u)[self.target]
             step = 1e-6 * (np.nanmean(np.abs(value)) + 1e-9)
             bumped = model.with_part(self.target, part.renamed("+step", lambda v, k, q: part(v, k, q) + step))
-            return (bumped.rhs(x, u) - model.rhs(x, u)) / step
+            return (bumped.rhs(x, u) - base) / step
 
     def feature_values(self, model: CellModel, features: Sequence[Feature], x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """theta (..., P) at the data; for a part, ``own`` is the part's value in ``model``."""
@@ -95,6 +110,21 @@ class Hypothesis:
         return self._with(model, lambda v, q, own: values, "delta(t)")
 
     def _with(self, model: CellModel, correction, formula: str) -> CellModel:
+        if self.kind == "property":
+            # one correction per property: a further change adds to the delta already there,
+            # so that derivatives taken at a corrected model are derivatives in delta
+            earlier = [c for c in model.properties if c.property.name == self.target]
+            others = tuple(c for c in model.properties if c.property.name != self.target)
+            if earlier:
+                previous = earlier[0]
+                merged = PropertyCorrection(
+                    previous.property,
+                    f"{previous.formula} + {formula}",
+                    lambda v: previous.fn(v) + correction(v, {}, None),
+                )
+            else:
+                merged = PropertyCorrection(PROPERTIES[self.target], formula, lambda v: correction(v, {}, None))
+            return dataclasses.replace(model, properties=others).with_property(merged, model_name=model.name)
         if self.kind == "part":
             part = model.parts[self.target]
             return model.with_part(
@@ -121,12 +151,13 @@ class Hypothesis:
 
 #: On a tie, which kind is named first: an added flow reads as physics unless the data
 #: need the part's own value (a relative correction), which then wins the BIC anyway.
-PREFERENCE = {"term": 0, "transfer": 1, "part": 2}
+PREFERENCE = {"term": 0, "transfer": 1, "part": 2, "property": 3}
 
 
 def candidate_hypotheses(model: CellModel) -> list[Hypothesis]:
-    """Every part, every balance, and every pair of balances of the same unit."""
+    """Every part, every balance, every pair of balances of the same unit, every physical property."""
     hypotheses = [Hypothesis(f"part:{name}", "part", name, model.parts[name].unit) for name in PART_ORDER]
+    hypotheses += [Hypothesis(f"property:{name}", "property", name, "-") for name in PROPERTIES]
     for balance, (_, unit) in BALANCES.items():
         hypotheses.append(Hypothesis(f"term:{balance}", "term", balance, unit, {balance: 1.0}))
     names = list(BALANCES)

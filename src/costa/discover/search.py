@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import spearmanr
 
-from ..physics import CellModel, CellVariables
+from ..physics import PART_ORDER, PROPERTIES, CellModel, CellVariables
 from ..variables import STATES
 from .hypotheses import PREFERENCE, Hypothesis, candidate_hypotheses
 from .library import Feature
@@ -43,6 +43,7 @@ class DiscoverySettings:
     """How discovery decides; the same for every data set (see the config schema)."""
 
     window: int = 64  # steps per weak-form window
+    window_scales: tuple[int, ...] = (1, 4, 16)  # longer windows, tried in turn when nothing disagrees
     z_threshold: float = 6.0  # an equation disagrees if its chi-square excess is this many standard errors ...
     min_excess: float = 0.1  # ... and at least this share of the noise variance
     max_terms: int = 8  # terms in a closed form
@@ -112,22 +113,33 @@ class _Problem:
         windows = form.windows(x.shape[1])
         self.groups = np.repeat(_groups(x.shape[0], windows, settings.blocks_per_trajectory), 8)
 
+        self._rates: dict[int, tuple[CellModel, np.ndarray]] = {}
+
     def standardised_residual(self, model: CellModel) -> np.ndarray:
         return self.form.residual(model, self.x, self.u) / self.scale
+
+    def sensitivity(self, hypothesis: Hypothesis, model: CellModel) -> np.ndarray:
+        """The hypothesis' sensitivity at the left end of every step, reusing the model's rates."""
+        if id(model) not in self._rates:
+            if len(self._rates) > 64:
+                self._rates.clear()
+            with np.errstate(all="ignore"):
+                self._rates[id(model)] = (model, model.rhs(self.left_x, self.left_u))
+        return hypothesis.sensitivity(model, self.left_x, self.left_u, base=self._rates[id(model)][1])
 
     def design(
         self,
         hypothesis: Hypothesis,
         model: CellModel,
         features: Sequence[Feature],
-        sensitivity_at: CellModel | None = None,
+        sensitivity: np.ndarray | None = None,
     ) -> np.ndarray:
         """d(standardised residual)/d(xi) (rows, P): minus the windowed sensitivity times each term.
 
-        The terms are evaluated with ``model`` (a part's own value is its value there);
-        the sensitivity at ``sensitivity_at`` if given (a better linearisation point).
+        The terms are evaluated with ``model`` (a part's own value is its value there); the
+        per-step sensitivity may be given (evaluated at a better linearisation point).
         """
-        sensitivity = hypothesis.sensitivity(sensitivity_at or model, self.left_x, self.left_u)
+        sensitivity = self.sensitivity(hypothesis, model) if sensitivity is None else sensitivity
         a = sensitivity.shape[1] // self.form.window
         cut = a * self.form.window
         blocks = []
@@ -142,8 +154,7 @@ class _Problem:
 
     def screen(self, hypothesis: Hypothesis, model: CellModel, z: np.ndarray) -> float:
         """Share of sum z^2 a free delta per window along this hypothesis' sensitivity removes."""
-        sensitivity = self.form.average(hypothesis.sensitivity(model, self.left_x, self.left_u)) / self.scale
-        sensitivity = np.nan_to_num(sensitivity)
+        sensitivity = np.nan_to_num(self.form.average(self.sensitivity(hypothesis, model)) / self.scale)
         numerator, denominator = (sensitivity * z).sum(-1), (sensitivity**2).sum(-1)
         delta = np.divide(numerator, denominator, out=np.zeros_like(numerator), where=denominator > 0)
         left = ((z - delta[..., None] * sensitivity) ** 2).sum()
@@ -158,17 +169,16 @@ def _chi2(z: np.ndarray) -> dict[str, float]:
 def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int):
     """Stage 1: the delta (n, A) each window needs along the hypothesis' sensitivity, its
     information (n, A) (inverse variance), and the model shifted by it.  A part may enter
-    nonlinearly (g1 appears squared), so the estimates are iterated, the sensitivity
-    re-evaluated at the shifted model."""
+    nonlinearly (g1 appears squared, a heat capacity divides), so the estimates are iterated,
+    the sensitivity re-evaluated at the shifted model."""
     n, a = problem.x.shape[0], problem.form.windows(problem.x.shape[1])
     per_sample = np.zeros(problem.left_x.shape[:2])
     delta = np.zeros((n, a))
     shifted = model
-    for _ in range(iterations if h.kind == "part" else 1):
+    for _ in range(iterations if h.kind in ("part", "property") else 1):
         z = problem.standardised_residual(shifted)
-        sensitivity = np.nan_to_num(
-            problem.form.average(h.sensitivity(shifted, problem.left_x, problem.left_u)) / problem.scale
-        )
+        per_step = problem.sensitivity(h, shifted)
+        sensitivity = np.nan_to_num(problem.form.average(per_step) / problem.scale)
         information = (sensitivity**2).sum(-1)
         step = np.divide(
             (sensitivity * np.nan_to_num(z)).sum(-1), information, out=np.zeros_like(information), where=information > 0
@@ -179,7 +189,7 @@ def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int
         shifted = h.shifted(model, per_sample)
         if np.abs(step).max() <= 1e-3 * (np.abs(delta).max() + 1e-12):
             break
-    return delta, information, shifted
+    return delta, information, shifted, per_step
 
 
 def _explain(problem: _Problem, h: Hypothesis, model: CellModel, measured, features: list[Feature]):
@@ -189,12 +199,10 @@ def _explain(problem: _Problem, h: Hypothesis, model: CellModel, measured, featu
     Returns the Gram system and the indices of the terms kept: a term that duplicates an
     earlier one (a relative term of a constant part, say) or is zero everywhere is dropped.
     """
-    delta, information, shifted = measured
+    delta, information, shifted, per_step = measured
     n, a = delta.shape
-    design = problem.design(h, model, features, sensitivity_at=shifted).reshape(n, a, 8, -1)
-    sensitivity = np.nan_to_num(
-        problem.form.average(h.sensitivity(shifted, problem.left_x, problem.left_u)) / problem.scale
-    )
+    design = problem.design(h, model, features, sensitivity=per_step).reshape(n, a, 8, -1)
+    sensitivity = np.nan_to_num(problem.form.average(per_step) / problem.scale)
     projected = np.einsum("nas,nasp->nap", sensitivity, design) / np.where(information > 0, information, 1)[..., None]
     weight = np.sqrt(information)[..., None]
     rows = (projected * weight).reshape(-1, len(features))
@@ -292,11 +300,11 @@ def _where(
 
 def _simplicity(candidate: Candidate) -> tuple:
     """Among equally good explanations: fewest terms, then an added flow before a part
-    correction, then the most elementary (earliest computed) part."""
-    from ..physics import PART_ORDER
-
+    correction before a property, then the most elementary (earliest computed) part or the
+    property listed first."""
     h = candidate.hypothesis
-    return (len(candidate.features), PREFERENCE[h.kind], PART_ORDER.index(h.target) if h.kind == "part" else 0)
+    order = {"part": list(PART_ORDER), "property": list(PROPERTIES)}.get(h.kind, [h.target])
+    return (len(candidate.features), PREFERENCE[h.kind], order.index(h.target))
 
 
 def discover_round(
@@ -351,6 +359,27 @@ def _uncertainty(stage2, chosen: Candidate, settings: DiscoverySettings, rng):
     return {name: float(p) for name, p in zip(names, inclusion, strict=True) if p > 0}, intervals
 
 
+def _first_disagreeing_scale(model, x, u, dt, noise, settings: DiscoverySettings, rng) -> _Problem:
+    """The problem at the shortest window at which an equation disagrees (or the shortest).
+
+    A small, slow effect hides in the noise of short windows but accumulates in long
+    ones: the weak form's noise falls steeply with the window length while a constant
+    bias in a rate does not.
+    """
+    problems = []
+    for factor in settings.window_scales:
+        form = WeakForm(settings.window * factor, dt)
+        if form.windows(x.shape[1]) < 4:
+            break
+        scale = form.noise_scale(model, x, u, noise, rng, settings.noise_draws)
+        problem = _Problem(x, u, form, scale, settings)
+        problems.append(problem)
+        residual = problem.standardised_residual(model) * scale
+        if any(t.flagged for t in equation_tests(residual, scale, settings.z_threshold, settings.min_excess)):
+            return problem
+    return problems[0]
+
+
 def discover(
     model: CellModel, x: np.ndarray, u: np.ndarray, dt: float, settings: DiscoverySettings
 ) -> tuple[list[Round], np.ndarray]:
@@ -360,13 +389,12 @@ def discover(
     """
     rng = np.random.default_rng(settings.seed)
     noise = estimate_noise(x)
-    form = WeakForm(settings.window, dt)
     rounds: list[Round] = []
     current = model
     rich = False
     for _ in range(settings.max_rounds):
-        scale = form.noise_scale(current, x, u, noise, rng, settings.noise_draws)
-        found = discover_round(current, _Problem(x, u, form, scale, settings), settings, rng, rich)
+        problem = _first_disagreeing_scale(current, x, u, dt, noise, settings, rng)
+        found = discover_round(current, problem, settings, rng, rich)
         rounds.append(found)
         if found.chosen is None:
             break

@@ -10,16 +10,20 @@ from .parameters import (
     parameters_from_config,
 )
 from .parts import PART_ORDER, Part, constant_part
+from .properties import PROPERTIES, PhysicalProperty, PropertyCorrection
 
 __all__ = [
     "BALANCES",
     "PART_ORDER",
+    "PROPERTIES",
     "BalanceTerm",
     "CellModel",
     "CellParameters",
     "CellVariables",
     "MaterialProperties",
     "Part",
+    "PhysicalProperty",
+    "PropertyCorrection",
     "ablated_model",
     "authors_code_parameters",
     "constant_part",

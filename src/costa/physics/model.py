@@ -13,8 +13,9 @@ Balances (paper numbering, q = the quantities computed by the parts, see
 - wall energy     dx8/dt = k17 (Q_ledge_wall - Q_wall_ambient)
 
 Extra :class:`BalanceTerm` s add flows in physical units to any balance: kg/s to a
-mass balance, W to an energy balance.  This is how hidden effects are made and how
-discovered corrections are put back.
+mass balance, W to an energy balance; :class:`~costa.physics.properties.PropertyCorrection` s
+change a physical property that several constants share.  This is how hidden effects
+are made and how discovered corrections are put back.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from .parts import (
     constant_part,
     paper_printed_parts,
 )
+from .properties import PropertyCorrection
 
 __all__ = [
     "BALANCES",
@@ -88,19 +90,32 @@ class CellModel:
     params: CellParameters
     parts: Mapping[str, Part]
     terms: tuple[BalanceTerm, ...] = field(default_factory=tuple)
+    properties: tuple[PropertyCorrection, ...] = field(default_factory=tuple)
 
     def __post_init__(self):
         if tuple(self.parts) != PART_ORDER:
             raise ValueError(f"model {self.name!r}: parts must be exactly {PART_ORDER} in order")
 
     # ----------------------------------------------------------- evaluation
-    def _quantities(self, v: CellVariables) -> dict[str, Array]:
+    def _parameters(self, v: CellVariables) -> CellParameters:
+        """The constants at these samples: rescaled where a property correction applies."""
+        if not self.properties:
+            return self.params
+        constants = dataclasses.asdict(self.params)
+        for correction in self.properties:
+            factor = 1 + correction.fn(v)
+            for name, exponent in correction.property.exponents.items():
+                constants[name] = constants[name] * factor**exponent
+        return CellParameters(**constants)
+
+    def _evaluate(self, v: CellVariables) -> tuple[CellParameters, dict[str, Array]]:
+        k = self._parameters(v)
         q: dict[str, Array] = {}
         for name, part in self.parts.items():
-            q[name] = part(v, self.params, q)
-        return q
+            q[name] = part(v, k, q)
+        return k, q
 
-    def _flows(self, v: CellVariables, q: Mapping[str, Array]) -> dict[str, Array]:
+    def _flows(self, v: CellVariables, k: CellParameters, q: Mapping[str, Array]) -> dict[str, Array]:
         flows = {
             "ledge_mass": q["freezing_rate"],
             "alumina_mass": v.u1 - q["alumina_consumption"],
@@ -112,25 +127,25 @@ class CellModel:
             "wall_energy": q["ledge_wall_heat"] - q["wall_ambient_heat"],
         }
         for term in self.terms:
-            value = term.fn(v, self.params, q)
+            value = term.fn(v, k, q)
             for balance, coefficient in term.targets.items():
                 flows[balance] = flows[balance] + coefficient * value
         return flows
 
     def quantities(self, x: Array, u: Array) -> dict[str, Array]:
         """Every part's value at states x (..., 8) and inputs u (..., 5)."""
-        return self._quantities(CellVariables(x, u))
+        return self._evaluate(CellVariables(x, u))[1]
 
     def balance_flows(self, x: Array, u: Array) -> dict[str, Array]:
         """The net flow into each balance, in kg/s or W (before heat capacities)."""
         v = CellVariables(x, u)
-        return self._flows(v, self._quantities(v))
+        return self._flows(v, *self._evaluate(v))
 
     def rhs(self, x: Array, u: Array) -> Array:
         """dx/dt (..., 8) in kg/s and degC/s."""
         v = CellVariables(x, u)
-        f = self._flows(v, self._quantities(v))
-        k = self.params
+        k, q = self._evaluate(v)
+        f = self._flows(v, k, q)
         rates = [f[b] for b in ("ledge_mass", "alumina_mass", "alf3_mass", "cryolite_mass", "metal_mass")]
         rates += [
             k.alpha / v.m * f["bath_energy"],
@@ -143,7 +158,7 @@ class CellModel:
         """d(dx_i/dt)/d(flow into balance i) (..., 8): 1 for masses, alpha/m, beta/x1, k17."""
         v = CellVariables(x, u)
         one = v.xp.ones_like(v.x1)
-        k = self.params
+        k = self._parameters(v)
         return v.xp.stack([one] * 5 + [k.alpha / v.m, k.beta / v.x1, k.k17 * one], axis=-1)
 
     # ------------------------------------------------------------- variants
@@ -162,6 +177,14 @@ class CellModel:
             self, terms=self.terms + tuple(terms), name=model_name or f"{self.name}+{'+'.join(names)}"
         )
 
+    def with_property(self, correction: PropertyCorrection, model_name: str | None = None) -> CellModel:
+        """This model with one physical property changed (see :mod:`costa.physics.properties`)."""
+        return dataclasses.replace(
+            self,
+            properties=(*self.properties, correction),
+            name=model_name or f"{self.name}+{correction.property.name}",
+        )
+
     def describe(self) -> str:
         """The model as readable equations, one quantity per line."""
         lines = [f"model {self.name}"]
@@ -169,6 +192,9 @@ class CellModel:
         for t in self.terms:
             where = ", ".join(f"{c:+g} x {b}" for b, c in t.targets.items())
             lines.append(f"  + {t.name} = {t.formula}  [{t.unit}]  into {where}")
+        for c in self.properties:
+            scaled = ", ".join(f"{name}^{exponent:g}" for name, exponent in c.property.exponents.items())
+            lines.append(f"  * {c.property.name} x (1 + {c.formula})   (rescales {scaled})")
         return "\n".join(lines)
 
 
