@@ -58,6 +58,24 @@ def test_report_is_rendered_without_errors(smoke_run):
     assert not [o for o in outputs if o.output_type == "error"]
     html = (smoke_run / "report/report.html").read_text()
     assert "reproduced" in html and "Provenance" in html and html.count("<img") >= 5
+    assert "Robustness across replicates" in html and "from a single run" in html
+
+
+def test_two_replicates_are_aggregated_plotted_and_reported(tmp_path):
+    two = tmp_path / "two_replicates.yaml"
+    two.write_text("replicates: 2\ndiscovery: {cases: []}\n")
+    snakemake(tmp_path, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"), str(two))
+    for path in ["results/replicates/r1/eval/summary.csv", "results/replicates/r1/figures/rolling_forecast.png",
+                 "results/replicates/blowups.png", "results/replicates/blowups.pdf"]:  # fmt: skip
+        assert (tmp_path / path).stat().st_size > 0, path
+    aggregate = pd.read_csv(tmp_path / "results/replicates/aggregate.csv")
+    assert len(aggregate) == 5 * 3 and (aggregate.replicates == 2).all() and (aggregate.rollouts <= 8).all()
+    claims = pd.read_csv(tmp_path / "results/replicates/claims.csv")
+    assert claims.verdict.str.fullmatch("holds in [0-2] of 2 replicates").all()
+    data = [pd.read_parquet(tmp_path / f"results/{rep}data/test.parquet") for rep in ("", "replicates/r1/")]
+    assert not data[0]["x1"].equals(data[1]["x1"])  # each replicate has its own seeds
+    html = (tmp_path / "report/report.html").read_text()
+    assert "Robustness across replicates" in html and "of 2 replicates" in html and "from a single run" not in html
 
 
 def test_second_run_has_nothing_to_do(smoke_run):

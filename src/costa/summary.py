@@ -11,10 +11,21 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["summary_table"]
+__all__ = ["bootstrap_groups", "resampling_units", "summary_table"]
 
 
-def _bootstrap(groups: list[np.ndarray], blown: list[np.ndarray], resamples: int, rng: np.random.Generator):
+def resampling_units(part: pd.DataFrame) -> tuple[str, list[np.ndarray], list[np.ndarray]]:
+    """The independent units of one model type's rollouts in one window.
+
+    Returns the unit ("instance", or "trajectory" for a type with one instance) and,
+    per unit, its errors and blow-up flags.
+    """
+    unit = "instance" if part["instance"].nunique() > 1 else "trajectory"
+    grouped = [g for _, g in part.groupby(unit, sort=True)]
+    return unit, [g["error"].to_numpy() for g in grouped], [g["blown_up"].to_numpy(dtype=bool) for g in grouped]
+
+
+def bootstrap_groups(groups: list[np.ndarray], blown: list[np.ndarray], resamples: int, rng: np.random.Generator):
     """(blow-up counts, medians) over ``resamples`` resamples of the groups."""
     n = len(groups)
     counts = np.empty(resamples)
@@ -41,11 +52,8 @@ def summary_table(
     keys = ["model_type", "window", "definition"]
     for (model, window, definition), part in metrics.groupby(keys, sort=False):
         rng = np.random.default_rng([seed, len(rows)])
-        unit = "instance" if part["instance"].nunique() > 1 else "trajectory"
-        grouped = [g for _, g in part.groupby(unit, sort=True)]
-        errors = [g["error"].to_numpy() for g in grouped]
-        blown = [g["blown_up"].to_numpy(dtype=bool) for g in grouped]
-        counts, medians = _bootstrap(errors, blown, resamples, rng)
+        unit, errors, blown = resampling_units(part)
+        counts, medians = bootstrap_groups(errors, blown, resamples, rng)
         kept = part.loc[~part["blown_up"], "error"]
         rows.append(
             {

@@ -39,6 +39,14 @@ def replicate_index(wildcards):
     return int(match.group(1)) if match else 0
 
 
+REPLICATES = [replicate_prefix(index) for index in range(config["replicates"])]
+
+
+def across_replicates(*paths):
+    """``paths`` when the run has several replicates, else none (one run has nothing to aggregate)."""
+    return list(paths) if len(REPLICATES) > 1 else []
+
+
 def package_files(*modules):
     """Library files whose change must rerun a rule.
 
@@ -160,8 +168,13 @@ def job_benchmarks(rep):
 def all_targets():
     targets = ["report/report.html"]
     targets += expand("results/discovery/{case}/discovery.png", case=DISCOVERY_CASES)
-    for index in range(config["replicates"]):
-        prefix = f"results/{replicate_prefix(index)}"
+    targets += across_replicates(
+        "results/replicates/aggregate.csv",
+        "results/replicates/claims.csv",
+        "results/replicates/blowups.png",
+    )
+    for rep in REPLICATES:
+        prefix = f"results/{rep}"
         targets += [
             f"{prefix}data/train.parquet",
             f"{prefix}data/test.parquet",

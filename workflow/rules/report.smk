@@ -18,13 +18,17 @@ rule report:
             "results/models/{model_type}/sparsity.parquet", model_type=MODEL_TYPES
         ),
         benchmarks=job_benchmarks(""),
-        discovery_summary=expand("results/discovery/summary.csv", _=DISCOVERY_CASES[:1]),
+        discovery_summary=["results/discovery/summary.csv"] if DISCOVERY_CASES else [],
         discovery_figures=expand(
             "results/discovery/{case}/discovery.png", case=DISCOVERY_CASES
         ),
         discovery_findings=expand(
             "results/discovery/{case}/findings.json", case=DISCOVERY_CASES
         ),
+        replicate_table=across_replicates("results/replicates/per_replicate.csv"),
+        replicate_aggregate=across_replicates("results/replicates/aggregate.csv"),
+        replicate_claims=across_replicates("results/replicates/claims.csv"),
+        replicate_blowups=across_replicates("results/replicates/blowups.png"),
         code=package_files("report.py", "paper.py", "plots"),
     output:
         html="report/report.html",

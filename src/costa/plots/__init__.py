@@ -2,6 +2,7 @@
 
 from .datasets import plot_datasets
 from .discovery import plot_discovery
+from .replicates import plot_replicate_blowups
 from .results import plot_blowups, plot_error_violins, plot_rolling_forecast
 from .style import save
 from .training import plot_training_curves
@@ -11,6 +12,7 @@ __all__ = [
     "plot_datasets",
     "plot_discovery",
     "plot_error_violins",
+    "plot_replicate_blowups",
     "plot_rolling_forecast",
     "plot_training_curves",
     "save",
