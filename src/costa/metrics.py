@@ -114,20 +114,7 @@ def metrics_table(
     ):
         error = per_step_error(x_hat, x_true, scale, kind, settings.nonfinite_error)
         for window, (value, blown) in compute(error, windows, settings.blowup_threshold).items():
-            instance, trajectory = np.indices(value.shape)
-            frames.append(
-                pd.DataFrame(
-                    {
-                        "model_type": model,
-                        "instance": instance.ravel().astype(np.int32),
-                        "trajectory": trajectory.ravel().astype(np.int32),
-                        "window": window,
-                        "definition": definition,
-                        "error": value.ravel(),
-                        "blown_up": blown.ravel(),
-                    }
-                )
-            )
+            frames.append(_tidy(model, window=window, definition=definition, error=value, blown_up=blown))
     return pd.concat(frames, ignore_index=True)
 
 
@@ -144,17 +131,20 @@ def per_state_table(
     frames = []
     for window, (start, stop) in settings.windows.items():
         means = normalised[..., start:stop, :].mean(axis=-2)  # (E, T, 8)
-        instance, trajectory, state = np.indices(means.shape)
-        frames.append(
-            pd.DataFrame(
-                {
-                    "model_type": model,
-                    "instance": instance.ravel().astype(np.int32),
-                    "trajectory": trajectory.ravel().astype(np.int32),
-                    "window": window,
-                    "state": np.asarray(STATES)[state.ravel()],
-                    "error": means.ravel(),
-                }
-            )
-        )
+        states = np.broadcast_to(np.asarray(STATES), means.shape)
+        frames.append(_tidy(model, window=window, state=states, error=means))
     return pd.concat(frames, ignore_index=True)
+
+
+def _tidy(model: str, **columns) -> pd.DataFrame:
+    """A tidy frame of per-rollout values: model_type, instance and trajectory (the first two
+    axes of the array columns), then ``columns`` (arrays raveled, scalars repeated)."""
+    shape = next(np.shape(v) for v in columns.values() if np.ndim(v))
+    instance, trajectory = np.indices(shape)[:2]
+    frame = {
+        "model_type": model,
+        "instance": instance.ravel().astype(np.int32),
+        "trajectory": trajectory.ravel().astype(np.int32),
+    }
+    frame.update({name: np.ravel(v) if np.ndim(v) else v for name, v in columns.items()})
+    return pd.DataFrame(frame)

@@ -37,6 +37,9 @@ from .weak_form import EquationTest, WeakForm, equation_tests, estimate_noise
 
 __all__ = ["Candidate", "DiscoverySettings", "Round", "discover"]
 
+#: the relative change a property may take in a window's estimate: beyond it, it is not a correction
+PROPERTY_RANGE = (-0.5, 1.0)
+
 
 @dataclass(frozen=True)
 class DiscoverySettings:
@@ -152,13 +155,16 @@ class _Problem:
         design = np.concatenate(blocks) / self.scale[..., None]
         return np.nan_to_num(design.reshape(-1, design.shape[-1]), nan=0.0, posinf=0.0, neginf=0.0)
 
-    def screen(self, hypothesis: Hypothesis, model: CellModel, z: np.ndarray) -> float:
-        """Share of sum z^2 a free delta per window along this hypothesis' sensitivity removes."""
+    def screen(self, hypothesis: Hypothesis, model: CellModel, z: np.ndarray, flagged: Sequence[int]) -> float:
+        """Share of the flagged equations' excess residual that a free delta per window along
+        this hypothesis' sensitivity removes, beyond what such a delta removes from noise alone
+        (about one unit of chi-square per window it can move)."""
         sensitivity = np.nan_to_num(self.form.average(self.sensitivity(hypothesis, model)) / self.scale)
         numerator, denominator = (sensitivity * z).sum(-1), (sensitivity**2).sum(-1)
         delta = np.divide(numerator, denominator, out=np.zeros_like(numerator), where=denominator > 0)
-        left = ((z - delta[..., None] * sensitivity) ** 2).sum()
-        return 1 - left / (z**2).sum()
+        removed = (z**2).sum() - ((z - delta[..., None] * sensitivity) ** 2).sum()
+        excess = sum(max(float((z[..., i] ** 2).sum()) - z[..., i].size, 0.0) for i in flagged)
+        return (removed - (denominator > 0).sum()) / excess if excess > 0 else 0.0
 
 
 def _chi2(z: np.ndarray) -> dict[str, float]:
@@ -184,11 +190,19 @@ def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int
             (sensitivity * np.nan_to_num(z)).sum(-1), information, out=np.zeros_like(information), where=information > 0
         )
         delta += step
+        if h.kind == "property":  # a relative change; keep clear of the pole of a divided capacity
+            delta = np.clip(delta, *PROPERTY_RANGE)
         per_sample[:, : a * problem.form.window] = np.repeat(delta, problem.form.window, axis=1)
         per_sample[:, a * problem.form.window :] = delta[:, -1:]
         shifted = h.shifted(model, per_sample)
         if np.abs(step).max() <= 1e-3 * (np.abs(delta).max() + 1e-12):
             break
+    # a window whose estimate has not settled (or sits at a bound) says nothing reliable
+    typical = np.median(np.abs(delta)) + 1e-12
+    unsettled = np.abs(step) > 1e-2 * (np.abs(delta) + typical)
+    if h.kind == "property":
+        unsettled |= (delta <= PROPERTY_RANGE[0]) | (delta >= PROPERTY_RANGE[1])
+    information = np.where(unsettled, 0.0, information)
     return delta, information, shifted, per_step
 
 
@@ -317,7 +331,7 @@ def discover_round(
     if not flagged:
         return Round(model, tests, {}, [], None, [], {}, [], "no equation disagrees with the data beyond noise", rich)
     hypotheses = candidate_hypotheses(model)
-    screened = sorted(((problem.screen(h, model, z0), h) for h in hypotheses), key=lambda item: -item[0])
+    screened = sorted(((problem.screen(h, model, z0, flagged), h) for h in hypotheses), key=lambda item: -item[0])
     # hypotheses with the same sensitivity tie exactly: keep ties together
     cut = screened[min(settings.screen_keep, len(screened)) - 1][0] - 1e-3
     keep = [h for share, h in screened if share >= max(cut, settings.min_screen)]
