@@ -181,7 +181,8 @@ def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int
     per_sample = np.zeros(problem.left_x.shape[:2])
     delta = np.zeros((n, a))
     shifted = model
-    for _ in range(iterations if h.kind in ("part", "property") else 1):
+    iterated = h.kind in ("part", "property")  # a flow enters linearly: one step is exact
+    for _ in range(iterations if iterated else 1):
         z = problem.standardised_residual(shifted)
         per_step = problem.sensitivity(h, shifted)
         sensitivity = np.nan_to_num(problem.form.average(per_step) / problem.scale)
@@ -197,12 +198,12 @@ def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int
         shifted = h.shifted(model, per_sample)
         if np.abs(step).max() <= 1e-3 * (np.abs(delta).max() + 1e-12):
             break
-    # a window whose estimate has not settled (or sits at a bound) says nothing reliable
-    typical = np.median(np.abs(delta)) + 1e-12
-    unsettled = np.abs(step) > 1e-2 * (np.abs(delta) + typical)
-    if h.kind == "property":
-        unsettled |= (delta <= PROPERTY_RANGE[0]) | (delta >= PROPERTY_RANGE[1])
-    information = np.where(unsettled, 0.0, information)
+    if iterated:  # a window whose estimate has not settled (or sits at a bound) says nothing reliable
+        typical = np.median(np.abs(delta)) + 1e-12
+        unsettled = np.abs(step) > 1e-2 * (np.abs(delta) + typical)
+        if h.kind == "property":
+            unsettled |= (delta <= PROPERTY_RANGE[0]) | (delta >= PROPERTY_RANGE[1])
+        information = np.where(unsettled, 0.0, information)
     return delta, information, shifted, per_step
 
 
@@ -251,11 +252,13 @@ def _gauss_newton(problem: _Problem, h: Hypothesis, model: CellModel, features: 
     return xi
 
 
-def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: DiscoverySettings, rng, rich: bool = False):
+def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: DiscoverySettings, seed, rich: bool = False):
     """Measure delta per window (stage 1), select a closed form by stability: the terms a
     bootstrap of the forward selection picks in at least half the resamples and whose
-    coefficient's 95 % interval excludes zero (stage 2), then refine their coefficients on
-    the exact residual (stage 3)."""
+    coefficient's 99 % interval excludes zero (stage 2), then refine their coefficients on
+    the exact residual (stage 3).  Every hypothesis of a round resamples with the same ``seed``,
+    so that equivalent hypotheses (the same regression) get the same answer."""
+    rng = np.random.default_rng(seed)
     library = h.features(rich)
     system, kept = _explain(problem, h, model, _measure(problem, h, model, settings.refine_iterations), library)
     selection = {"max_terms": settings.max_terms, "min_gain": settings.min_gain}
@@ -335,7 +338,8 @@ def discover_round(
     # hypotheses with the same sensitivity tie exactly: keep ties together
     cut = screened[min(settings.screen_keep, len(screened)) - 1][0] - 1e-3
     keep = [h for share, h in screened if share >= max(cut, settings.min_screen)]
-    fitted = [_fit(problem, h, model, settings, rng, rich) for h in keep]
+    seed = rng.integers(2**63)
+    fitted = [_fit(problem, h, model, settings, seed, rich) for h in keep]
     systems = {c.hypothesis.key: system for c, system in fitted}
     ranking = [_score(problem, c, model, z0, flagged) for c, _ in fitted]
     ranking.sort(key=lambda c: -c.bic_gain)
