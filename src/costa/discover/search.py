@@ -14,7 +14,10 @@ One round:
    among those within ``equivalence`` of the best (a difference the data cannot
    call strong) the simplest is named (fewest terms, then a flow before a part
    correction, then the most elementary part); the others are reported as
-   equivalent explanations, the rest as runners-up;
+   equivalent explanations, the rest as runners-up.  In later rounds an effect named
+   before is refined rather than a new one introduced unless the new one gains clearly
+   more (``new_mechanism_margin``): what is left after a first closed form is usually the
+   curvature that form missed, and any flow into the same balance can mimic it;
 4. the named correction must remove a material share of the excess and gain enough
    BIC; its coefficients get intervals and inclusion frequencies from a bootstrap
    over blocks of trajectories; the corrected model goes into the next round.
@@ -61,6 +64,7 @@ class DiscoverySettings:
     max_rounds: int = 3
     noise_draws: int = 8  # Monte Carlo draws for the residual's noise scale
     equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
+    new_mechanism_margin: float = 0.05  # a new effect must gain this share more BIC than refining a named one
     seed: int = 0
 
 
@@ -158,11 +162,16 @@ class _Problem:
     def screen(self, hypothesis: Hypothesis, model: CellModel, z: np.ndarray, flagged: Sequence[int]) -> float:
         """Share of the flagged equations' excess residual that a free delta per window along
         this hypothesis' sensitivity removes, beyond what such a delta removes from noise alone
-        (about one unit of chi-square per window it can move)."""
+        (about one unit of chi-square per window it can move).  Equations that agree with the
+        data count only against it: a delta that absorbs their noise (or a sub-threshold
+        residual) explains nothing that was flagged."""
         sensitivity = np.nan_to_num(self.form.average(self.sensitivity(hypothesis, model)) / self.scale)
         numerator, denominator = (sensitivity * z).sum(-1), (sensitivity**2).sum(-1)
         delta = np.divide(numerator, denominator, out=np.zeros_like(numerator), where=denominator > 0)
-        removed = (z**2).sum() - ((z - delta[..., None] * sensitivity) ** 2).sum()
+        removed = (z**2 - (z - delta[..., None] * sensitivity) ** 2).reshape(-1, 8).sum(0)
+        agreeing = np.ones(8, bool)
+        agreeing[list(flagged)] = False
+        removed = removed[~agreeing].sum() + min(removed[agreeing].sum(), 0.0)
         excess = sum(max(float((z[..., i] ** 2).sum()) - z[..., i].size, 0.0) for i in flagged)
         return (removed - (denominator > 0).sum()) / excess if excess > 0 else 0.0
 
@@ -325,9 +334,15 @@ def _simplicity(candidate: Candidate) -> tuple:
 
 
 def discover_round(
-    model: CellModel, problem: _Problem, settings: DiscoverySettings, rng: np.random.Generator, rich: bool = False
+    model: CellModel,
+    problem: _Problem,
+    settings: DiscoverySettings,
+    rng: np.random.Generator,
+    rich: bool = False,
+    named: Sequence[str] = (),
 ) -> Round:
-    """One round on the current model (see the module docstring); ``rich``: the larger term library."""
+    """One round on the current model (see the module docstring); ``rich``: the larger term
+    library; ``named``: the keys of the hypotheses earlier rounds named."""
     z0 = problem.standardised_residual(model)
     tests = equation_tests(z0 * problem.scale, problem.scale, settings.z_threshold, settings.min_excess)
     flagged = [i for i, t in enumerate(tests) if t.flagged]
@@ -343,7 +358,16 @@ def discover_round(
     systems = {c.hypothesis.key: system for c, system in fitted}
     ranking = [_score(problem, c, model, z0, flagged) for c, _ in fitted]
     ranking.sort(key=lambda c: -c.bic_gain)
-    good = [c for c in ranking if c.features and c.bic_gain >= ranking[0].bic_gain - settings.equivalence]
+    best = ranking[0].bic_gain
+    good = [
+        c
+        for c in ranking
+        if c.features
+        and (
+            c.bic_gain >= best - settings.equivalence
+            or (c.hypothesis.key in named and c.bic_gain >= (1 - settings.new_mechanism_margin) * best)
+        )
+    ]
     where = _where(problem, model, z0, flagged)
     if not good or good[0].explained < settings.min_explained or good[0].bic_gain < settings.min_gain:
         best = ranking[0]
@@ -352,7 +376,7 @@ def discover_round(
             f"{best.hypothesis.key}, removes {best.explained:.0%} of the excess residual"
         )
         return Round(model, tests, where, ranking, None, [], {}, [], verdict, rich)
-    good.sort(key=_simplicity)
+    good.sort(key=lambda c: (c.hypothesis.key not in named, *_simplicity(c)))
     chosen, equivalent = good[0], good[1:]
     inclusion, intervals = _uncertainty(systems[chosen.hypothesis.key], chosen, settings, rng)
     verdict = (
@@ -412,7 +436,8 @@ def discover(
     rich = False
     for _ in range(settings.max_rounds):
         problem = _first_disagreeing_scale(current, x, u, dt, noise, settings, rng)
-        found = discover_round(current, problem, settings, rng, rich)
+        named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
+        found = discover_round(current, problem, settings, rng, rich, named)
         rounds.append(found)
         if found.chosen is None:
             break
