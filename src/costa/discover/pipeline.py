@@ -16,9 +16,10 @@ from ..metrics import EvaluationSettings, state_scale
 from ..physics import CellModel, model_from_config
 from ..simulate import SimulationSettings, simulate_set
 from ..variables import INPUTS
-from .cases import CASES, add_noise
+from .cases import CASES, HiddenEffectCase, add_noise
 from .gap import gap_tables, noise_floor
 from .search import DiscoverySettings, Round, discover
+from .weak_form import estimate_noise
 
 __all__ = ["DiscoveryData", "DiscoveryResult", "case_tables", "run_discovery", "split_held_out", "starting_model"]
 
@@ -54,15 +55,15 @@ def starting_model(config: Mapping, name: str) -> CellModel:
     return models[name]
 
 
-def case_tables(config: Mapping, case_name: str) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Noisy training and held-out tables of a shipped case, simulated with its true model."""
-    case = CASES[case_name]
+def case_tables(config: Mapping, case: str | HiddenEffectCase) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Noisy training and held-out tables of a case (a shipped one by name), simulated with its true model."""
+    case = CASES[case] if isinstance(case, str) else case
     discovery = config["discovery"]
     settings = SimulationSettings.from_config(config["simulation"])
     true, _ = case.models(model_from_config(config["physics"])[0])
     tables = []
     for split, count in (("train", discovery["trajectories"]), ("held_out", discovery["held_out_trajectories"])):
-        stream = f"discovery/{case_name}/{split}"
+        stream = f"discovery/{case.name}/{split}"
         trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream)
         noisy = add_noise(trajectories.x, case.noise, seeds.numpy_generator(config["seed"], 0, f"{stream}/noise"))
         tables.append(to_table(noisy, trajectories.u, settings.dt))
@@ -133,5 +134,7 @@ def run_discovery(
     )
     gap, per_state = gap_tables(models, data.x_held_out, data.u_held_out, data.dt, scale, evaluation)
     rng = seeds.numpy_generator(config["seed"], 0, f"discovery/{name}/floor")
-    floor = noise_floor(corrected, data.x_held_out, data.u_held_out, data.dt, noise, scale, evaluation, rng)
+    # the held-out trajectories' own noise: their sensors (or their noise level) may differ
+    held_out_noise = estimate_noise(data.x_held_out)
+    floor = noise_floor(corrected, data.x_held_out, data.u_held_out, data.dt, held_out_noise, scale, evaluation, rng)
     return DiscoveryResult(rounds, noise, corrected, gap, per_state, floor, seconds)
