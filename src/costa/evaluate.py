@@ -31,7 +31,8 @@ class Evaluation:
 
 
 def forecast_table(model: str, x_hat: np.ndarray, trajectories: Sequence[int]) -> pd.DataFrame:
-    """Full forecasts (E, T, K, 8) of some trajectories as a tidy float32 table."""
+    """Full forecasts (E, T, K, 8) of some trajectories as a tidy float32 table (a blown-up
+    state beyond float32's range is stored as +-inf)."""
     chosen = x_hat[:, list(trajectories)]
     instance, trajectory, step = np.indices(chosen.shape[:3])
     table = pd.DataFrame(
@@ -42,8 +43,9 @@ def forecast_table(model: str, x_hat: np.ndarray, trajectories: Sequence[int]) -
             "step": step.ravel().astype(np.int32),
         }
     )
-    for i, name in enumerate(STATES):
-        table[name] = chosen[..., i].ravel().astype(np.float32)
+    with np.errstate(over="ignore"):
+        for i, name in enumerate(STATES):
+            table[name] = chosen[..., i].ravel().astype(np.float32)
     return table
 
 
