@@ -6,7 +6,7 @@ import pytest
 import yaml
 from conftest import REPOSITORY
 
-from costa.config import ConfigError, load_config
+from costa.config import ConfigError, check_consistency, load_config
 
 
 def test_schema_defaults_are_the_default_config(tmp_path):
@@ -44,3 +44,10 @@ def test_every_default_key_is_documented_in_the_schema():
     schema = yaml.safe_load((REPOSITORY / "workflow" / "schemas" / "config.schema.yaml").read_text())
     config = yaml.safe_load((REPOSITORY / "config" / "config.yaml").read_text())
     assert set(config) <= set(schema["properties"])
+
+
+def test_the_paper_windows_must_be_named():
+    config = load_config()
+    del config["evaluation"]["windows"]["medium"]
+    with pytest.raises(ConfigError, match=r"evaluation.windows lacks \['medium'\]"):
+        check_consistency(config)

@@ -10,13 +10,13 @@ import pytest
 from conftest import random_operating_points
 
 from costa.data import TrajectoryDataError, to_table
-from costa.discover import CASES, HiddenEffectCase, add_noise
+from costa.discover import CASES, DiscoverySettings, HiddenEffectCase, add_noise, discover
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import case_tables, run_discovery, split_held_out, starting_model
 from costa.discover.regression import GramSystem, bootstrap, stepwise
 from costa.discover.weak_form import WeakForm, equation_tests, estimate_noise
-from costa.physics import PROPERTIES, PropertyCorrection
+from costa.physics import PROPERTIES, PropertyCorrection, ablated_model
 from costa.simulate import simulate_set
 
 
@@ -44,6 +44,14 @@ def test_no_equation_is_flagged_on_noisy_data_from_the_model_itself(clean, model
     tests = equation_tests(form.residual(model, noisy, clean.u), scale)
     assert not any(t.flagged for t in tests)
     assert all(0.6 < t.chi2_per_dof < 1.3 for t in tests), [t.chi2_per_dof for t in tests]
+
+
+def test_a_disagreement_no_hypothesis_can_explain_is_reported_not_invented(clean, model, rng):
+    ablated = ablated_model(model)
+    settings = DiscoverySettings(min_screen=1e9, max_rounds=1, seed=1)  # no hypothesis passes the screen
+    rounds, _ = discover(ablated, add_noise(clean.x, 0.01, rng), clean.u, 10.0, settings)
+    assert rounds[0].flagged and rounds[0].chosen is None
+    assert "no hypothesis could remove" in rounds[0].verdict and rounds[0].window == 64
 
 
 def test_sensitivities_match_the_analytic_derivatives(model, rng):
@@ -221,8 +229,9 @@ UNSEEN = [
 def test_effects_that_are_not_shipped_cases(default_config, case, truth):
     found = _run(copy.deepcopy(default_config), case)
     assert set(found["flagged_equations"]) == set(case.expected_equations), found["rounds"][0]["equations"]
-    assert found["named"][:1] == [found["rounds"][0]["named"]["hypothesis"]] and found["named"][0] in case.accepted
-    coefficients = {c["term"]: c["value"] for c in found["rounds"][0]["named"]["coefficients"]}
+    first = found["rounds"][0]["named"]
+    assert first is not None and first["hypothesis"] in case.accepted, found["rounds"][0]["verdict"]
+    coefficients = {c["term"]: c["value"] for c in first["coefficients"]}
     assert coefficients.keys() == truth.keys()
     assert all(abs(coefficients[t] - v) <= 0.1 * abs(v) for t, v in truth.items()), coefficients
     assert found["gap"]["shrink"]["long"] > 0.2, found["gap"]

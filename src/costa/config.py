@@ -40,6 +40,13 @@ def check_consistency(config: Mapping[str, Any]) -> None:
         EvaluationSettings.from_config(evaluation).check(steps)
     except ValueError as error:
         raise ConfigError(f"{error} (simulation.steps)") from None
+    for key in ("windows", "horizons"):
+        missing = sorted({"short", "medium", "long"} - set(evaluation[key]))
+        if missing:
+            raise ConfigError(
+                f"evaluation.{key} lacks {missing}: the paper's claims and the discovery summary compare "
+                "the short, medium and long windows"
+            )
     tests = config["simulation"]["test_trajectories"]
     if any(t >= tests for t in evaluation["saved_trajectories"]):
         raise ConfigError(

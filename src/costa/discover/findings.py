@@ -32,6 +32,7 @@ def _round(index: int, r: Round) -> dict[str, Any]:
         "round": index,
         "model": r.model.name,
         "richer_library": r.rich,
+        "window_steps": r.window,
         "equations": [
             {
                 "state": t.state,
@@ -124,6 +125,7 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
     ]
     for r in f["rounds"]:
         lines += [f"## Round {r['round']}" + (" (richer term library)" if r["richer_library"] else ""), ""]
+        lines += [f"Residuals averaged over windows of {r['window_steps']} steps.", ""]
         lines.append("| state | meaning | chi2/dof | z | disagrees |")
         lines.append("|---|---|---|---|---|")
         lines += [

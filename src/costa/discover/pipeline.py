@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -109,7 +109,7 @@ def settings_from_config(config: Mapping) -> DiscoverySettings:
     return DiscoverySettings(
         window=d["window_steps"], z_threshold=d["z_threshold"], min_excess=d["min_excess"], max_terms=d["max_terms"],
         min_gain=d["min_bic_gain"], min_explained=d["min_explained"], max_rounds=d["max_rounds"],
-        bootstrap=d["bootstrap"], seed=config["seed"],
+        bootstrap=d["bootstrap"],
     )  # fmt: skip
 
 
@@ -120,7 +120,7 @@ def run_discovery(
 
     ``name`` keys the random streams; ``source`` names the data in error messages.
     """
-    settings = settings_from_config(config)
+    settings = replace(settings_from_config(config), seed=seeds.stream(config["seed"], 0, f"discovery/{name}/search"))
     data = _data(train, held_out, source, settings.window)
     started = time.perf_counter()
     rounds, noise = discover(start, data.x, data.u, data.dt, settings)

@@ -6,10 +6,10 @@ One round:
    against the noise (:mod:`.weak_form`); nothing flagged -> stop, nothing invented;
 2. every hypothesis (:mod:`.hypotheses`) is screened by how much of the residual a
    free delta(t) along its sensitivity explains; the promising ones get a sparse
-   closed form from the term library (:mod:`.library`, :mod:`.regression`), refined
-   by Gauss-Newton on the exact residual (a wrong liquidus temperature enters the
-   energy balances squared) and re-selected at the refined point until the terms
-   settle; terms that a bootstrap re-selects in fewer than half the resamples go;
+   closed form from the term library (:mod:`.library`, :mod:`.regression`): the terms
+   a bootstrap of the forward selection picks in at least half the resamples, and whose
+   99 % interval excludes zero, then refined by Gauss-Newton on the exact residual (a
+   wrong liquidus temperature enters the energy balances squared);
 3. candidates are ranked by the BIC gain of their correction on the exact residual;
    among those within ``equivalence`` of the best (a difference the data cannot
    call strong) the simplest is named (fewest terms, then a flow before a part
@@ -46,7 +46,9 @@ PROPERTY_RANGE = (-0.5, 1.0)
 
 @dataclass(frozen=True)
 class DiscoverySettings:
-    """How discovery decides; the same for every data set (see the config schema)."""
+    """How discovery decides; the same for every data set.  The config sets the window, the
+    test thresholds, the term and gain limits, the rounds, the bootstrap and the seed
+    (``discovery.*`` in the schema); the rest are fixed here."""
 
     window: int = 64  # steps per weak-form window
     window_scales: tuple[int, ...] = (1, 4, 16)  # longer windows, tried in turn when nothing disagrees
@@ -65,7 +67,7 @@ class DiscoverySettings:
     noise_draws: int = 8  # Monte Carlo draws for the residual's noise scale
     equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
     new_mechanism_margin: float = 0.05  # a new effect must gain this share more BIC than refining a named one
-    seed: int = 0
+    seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
 
 
 @dataclass
@@ -99,6 +101,7 @@ class Round:
     intervals: list[tuple[float, float]]
     verdict: str
     rich: bool = False
+    window: int = 0  # steps per weak-form window of this round's tests
 
     @property
     def flagged(self) -> list[str]:
@@ -343,16 +346,25 @@ def discover_round(
 ) -> Round:
     """One round on the current model (see the module docstring); ``rich``: the larger term
     library; ``named``: the keys of the hypotheses earlier rounds named."""
+    window = problem.form.window
     z0 = problem.standardised_residual(model)
     tests = equation_tests(z0 * problem.scale, problem.scale, settings.z_threshold, settings.min_excess)
     flagged = [i for i, t in enumerate(tests) if t.flagged]
     if not flagged:
-        return Round(model, tests, {}, [], None, [], {}, [], "no equation disagrees with the data beyond noise", rich)
+        return Round(
+            model, tests, {}, [], None, [], {}, [], "no equation disagrees with the data beyond noise", rich, window
+        )
     hypotheses = candidate_hypotheses(model)
     screened = sorted(((problem.screen(h, model, z0, flagged), h) for h in hypotheses), key=lambda item: -item[0])
     # hypotheses with the same sensitivity tie exactly: keep ties together
     cut = screened[min(settings.screen_keep, len(screened)) - 1][0] - 1e-3
     keep = [h for share, h in screened if share >= max(cut, settings.min_screen)]
+    if not keep:
+        verdict = (
+            f"equations {[STATES[i] for i in flagged]} disagree beyond noise, but no hypothesis could remove "
+            f"{settings.min_screen:.0%} of the excess residual even with a free value in every window"
+        )
+        return Round(model, tests, _where(problem, model, z0, flagged), [], None, [], {}, [], verdict, rich, window)
     seed = rng.integers(2**63)
     fitted = [_fit(problem, h, model, settings, seed, rich) for h in keep]
     systems = {c.hypothesis.key: system for c, system in fitted}
@@ -370,19 +382,19 @@ def discover_round(
     ]
     where = _where(problem, model, z0, flagged)
     if not good or good[0].explained < settings.min_explained or good[0].bic_gain < settings.min_gain:
-        best = ranking[0]
+        top = ranking[0]
         verdict = (
             f"equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate explains it: the best, "
-            f"{best.hypothesis.key}, removes {best.explained:.0%} of the excess residual"
+            f"{top.hypothesis.key}, removes {top.explained:.0%} of the excess residual"
         )
-        return Round(model, tests, where, ranking, None, [], {}, [], verdict, rich)
+        return Round(model, tests, where, ranking, None, [], {}, [], verdict, rich, window)
     good.sort(key=lambda c: (c.hypothesis.key not in named, *_simplicity(c)))
     chosen, equivalent = good[0], good[1:]
     inclusion, intervals = _uncertainty(systems[chosen.hypothesis.key], chosen, settings, rng)
     verdict = (
         f"{chosen.hypothesis.describe(model)}; the correction removes {chosen.explained:.0%} of the excess residual"
     )
-    return Round(model, tests, where, ranking, chosen, equivalent, inclusion, intervals, verdict, rich)
+    return Round(model, tests, where, ranking, chosen, equivalent, inclusion, intervals, verdict, rich, window)
 
 
 def _uncertainty(stage2, chosen: Candidate, settings: DiscoverySettings, rng):

@@ -20,10 +20,7 @@ def plot_discovery(findings: Mapping, gap: pd.DataFrame) -> plt.Figure:
     the noise floor."""
     fig, (left, right) = plt.subplots(1, 2, figsize=(13, 4.6), gridspec_kw={"width_ratios": [1.3, 1]})
     rounds = findings["rounds"]
-    stages = [
-        (f"before round {r['round']}" + (" (starting model)" if r["round"] == 1 else ""), r["equations"])
-        for r in rounds
-    ]
+    stages = [(f"before round {r['round']} ({r['window_steps']}-step windows)", r["equations"]) for r in rounds]
     stages = [(label, {e["state"]: e["chi2_per_dof"] for e in equations}) for label, equations in stages]
     if rounds[-1]["named"]:
         stages.append(("after the last correction", rounds[-1]["named"]["chi2_after"]))
