@@ -30,33 +30,34 @@ def smoke_run(tmp_path_factory):
     return workdir
 
 
+# the smoke config writes under results/smoke/ (config/smoke.yaml: output)
 SMOKE_OUTPUTS = [
-    "results/data/train.parquet", "results/data/test.parquet",
-    "results/models/costa_sparse/instance1.pt", "results/models/ddm_dense/losses.parquet",
-    "results/models/ddm_sparse/sparsity.parquet", "results/eval/pbm/metrics.parquet",
-    "results/eval/metrics.parquet", "results/eval/summary.csv", "results/eval/claims.csv",
-    "results/figures/datasets.png", "results/figures/datasets.pdf", "results/figures/training_curves.png",
-    "results/figures/error_violins.png", "results/figures/blowups.pdf", "results/figures/rolling_forecast.png",
-    "results/logs/simulate_train.log", "results/benchmarks/train_ddm_dense.tsv",
-    "report/report.html", "results/report/report.ipynb",
+    "results/smoke/data/train.parquet", "results/smoke/data/test.parquet",
+    "results/smoke/models/costa_sparse/instance1.pt", "results/smoke/models/ddm_dense/losses.parquet",
+    "results/smoke/models/ddm_sparse/sparsity.parquet", "results/smoke/eval/pbm/metrics.parquet",
+    "results/smoke/eval/metrics.parquet", "results/smoke/eval/summary.csv", "results/smoke/eval/claims.csv",
+    "results/smoke/figures/datasets.png", "results/smoke/figures/datasets.pdf", "results/smoke/figures/training_curves.png",
+    "results/smoke/figures/error_violins.png", "results/smoke/figures/blowups.pdf", "results/smoke/figures/rolling_forecast.png",
+    "results/smoke/logs/simulate_train.log", "results/smoke/benchmarks/train_ddm_dense.tsv",
+    "results/smoke/report/report.html", "results/smoke/report/report.ipynb",
 ]  # fmt: skip
 
 
 def test_smoke_run_builds_every_target(smoke_run):
     for path in SMOKE_OUTPUTS:
         assert (smoke_run / path).stat().st_size > 0, path
-    test = pd.read_parquet(smoke_run / "results/data/test.parquet")
+    test = pd.read_parquet(smoke_run / "results/smoke/data/test.parquet")
     assert test["trajectory"].nunique() == 4 and test["step"].max() == 399
-    metrics = pd.read_parquet(smoke_run / "results/eval/metrics.parquet")
+    metrics = pd.read_parquet(smoke_run / "results/smoke/eval/metrics.parquet")
     # (4 types x 2 instances + the PBM) x 4 trajectories x 3 windows x 2 definitions
     assert len(metrics) == (4 * 2 + 1) * 4 * 3 * 2
 
 
 def test_report_is_rendered_without_errors(smoke_run):
-    notebook = nbformat.read(smoke_run / "results/report/report.ipynb", as_version=4)
+    notebook = nbformat.read(smoke_run / "results/smoke/report/report.ipynb", as_version=4)
     outputs = [o for cell in notebook.cells if cell.cell_type == "code" for o in cell.outputs]
     assert not [o for o in outputs if o.output_type == "error"]
-    html = (smoke_run / "report/report.html").read_text()
+    html = (smoke_run / "results/smoke/report/report.html").read_text()
     assert "reproduced" in html and "Provenance" in html and html.count("<img") >= 5
     assert "Robustness across replicates" in html and "from a single run" in html
 
@@ -65,16 +66,16 @@ def test_two_replicates_are_aggregated_plotted_and_reported(tmp_path):
     two = tmp_path / "two_replicates.yaml"
     two.write_text("replicates: 2\ndiscovery: {cases: []}\n")
     snakemake(tmp_path, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"), str(two))
-    for path in ["results/replicates/r1/eval/summary.csv", "results/replicates/r1/figures/rolling_forecast.png",
-                 "results/replicates/blowups.png", "results/replicates/blowups.pdf"]:  # fmt: skip
+    for path in ["results/smoke/replicates/r1/eval/summary.csv", "results/smoke/replicates/r1/figures/rolling_forecast.png",
+                 "results/smoke/replicates/blowups.png", "results/smoke/replicates/blowups.pdf"]:  # fmt: skip
         assert (tmp_path / path).stat().st_size > 0, path
-    aggregate = pd.read_csv(tmp_path / "results/replicates/aggregate.csv")
+    aggregate = pd.read_csv(tmp_path / "results/smoke/replicates/aggregate.csv")
     assert len(aggregate) == 5 * 3 and (aggregate.replicates == 2).all() and (aggregate.rollouts <= 8).all()
-    claims = pd.read_csv(tmp_path / "results/replicates/claims.csv")
+    claims = pd.read_csv(tmp_path / "results/smoke/replicates/claims.csv")
     assert claims.verdict.str.fullmatch("holds in [0-2] of 2 replicates").all()
-    data = [pd.read_parquet(tmp_path / f"results/{rep}data/test.parquet") for rep in ("", "replicates/r1/")]
+    data = [pd.read_parquet(tmp_path / f"results/smoke/{rep}data/test.parquet") for rep in ("", "replicates/r1/")]
     assert not data[0]["x1"].equals(data[1]["x1"])  # each replicate has its own seeds
-    html = (tmp_path / "report/report.html").read_text()
+    html = (tmp_path / "results/smoke/report/report.html").read_text()
     assert "Robustness across replicates" in html and "of 2 replicates" in html and "from a single run" not in html
 
 
@@ -84,7 +85,7 @@ def test_second_run_has_nothing_to_do(smoke_run):
 
 
 def test_bad_config_stops_with_the_key_and_keeps_results(smoke_run):
-    data = smoke_run / "results/data/train.parquet"
+    data = smoke_run / "results/smoke/data/train.parquet"
     before = data.read_bytes()
     bad = smoke_run / "bad.yaml"
     bad.write_text("simulation:\n  train_trajectories: -3\n")

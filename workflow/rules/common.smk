@@ -18,6 +18,15 @@ for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 
+RESULTS = config["output"]["results"]
+REPORT = config["output"]["report"]
+
+
+def out(path):
+    """A path under this run's results folder (``output.results``: results/, or results/smoke/ ...)."""
+    return f"{RESULTS}/{path}"
+
+
 MODEL_TYPES = list(config["training"]["model_types"])
 EVALUATED = [*MODEL_TYPES, "pbm"]  # the trained types and the ablated physics model
 
@@ -30,7 +39,7 @@ wildcard_constraints:
 
 
 def replicate_prefix(index):
-    """Replicate 0 (the paper's run) is written to results/, replicate k to results/replicates/rk/."""
+    """Replicate 0 (the paper's run) is written to the results folder, replicate k to its replicates/rk/."""
     return "" if index == 0 else f"replicates/r{index}/"
 
 
@@ -82,7 +91,7 @@ def trained_instances(wildcards):
     if wildcards.model == "pbm":
         return []
     return expand(
-        "results/{rep}models/{model}/instance{i}.pt",
+        out("{rep}models/{model}/instance{i}.pt"),
         rep=wildcards.rep,
         model=wildcards.model,
         i=range(config["training"]["instances"]),
@@ -156,7 +165,7 @@ def discovery_meta(wildcards):
 
 def job_benchmarks(rep):
     """The benchmark file of every job of one replicate (the report's run-time table)."""
-    prefix = f"results/{rep}benchmarks"
+    prefix = out(f"{rep}benchmarks")
     jobs = [f"simulate_{split}" for split in ("train", "test")]
     jobs += [f"train_{model_type}" for model_type in MODEL_TYPES]
     jobs += [f"rollout_{model}" for model in EVALUATED]
@@ -166,15 +175,15 @@ def job_benchmarks(rep):
 
 
 def all_targets():
-    targets = ["report/report.html"]
-    targets += expand("results/discovery/{case}/discovery.png", case=DISCOVERY_CASES)
+    targets = [f"{REPORT}/report.html"]
+    targets += expand(out("discovery/{case}/discovery.png"), case=DISCOVERY_CASES)
     targets += across_replicates(
-        "results/replicates/aggregate.csv",
-        "results/replicates/claims.csv",
-        "results/replicates/blowups.png",
+        out("replicates/aggregate.csv"),
+        out("replicates/claims.csv"),
+        out("replicates/blowups.png"),
     )
     for rep in REPLICATES:
-        prefix = f"results/{rep}"
+        prefix = out(rep)
         targets += [
             f"{prefix}data/train.parquet",
             f"{prefix}data/test.parquet",

@@ -3,12 +3,12 @@ rule discovery_case_data:
     input:
         code=DISCOVERY_CODE,
     output:
-        train="results/discovery/{case}/data/train.parquet",
-        held_out="results/discovery/{case}/data/held_out.parquet",
+        train=out("discovery/{case}/data/train.parquet"),
+        held_out=out("discovery/{case}/data/held_out.parquet"),
     log:
-        "results/discovery/{case}/logs/data.log",
+        out("discovery/{case}/logs/data.log"),
     benchmark:
-        "results/discovery/{case}/benchmarks/data.tsv"
+        out("discovery/{case}/benchmarks/data.tsv")
     wildcard_constraints:
         case="|".join(SHIPPED_CASES) or "^$",
     conda:
@@ -25,10 +25,10 @@ rule discovery_user_data:
     input:
         measurements=lambda wildcards: config["discovery"]["user_data"]["path"],
     output:
-        train="results/discovery/{case}/data/train.parquet",
-        held_out="results/discovery/{case}/data/held_out.parquet",
+        train=out("discovery/{case}/data/train.parquet"),
+        held_out=out("discovery/{case}/data/held_out.parquet"),
     log:
-        "results/discovery/{case}/logs/data.log",
+        out("discovery/{case}/logs/data.log"),
     wildcard_constraints:
         case=USER_CASE or "^$",
     conda:
@@ -44,22 +44,22 @@ rule discover:
     """Find which equations disagree with the data, name the missing effect, correct the
     model and measure the gap before and after on held-out trajectories."""
     input:
-        train="results/discovery/{case}/data/train.parquet",
-        held_out="results/discovery/{case}/data/held_out.parquet",
+        train=out("discovery/{case}/data/train.parquet"),
+        held_out=out("discovery/{case}/data/held_out.parquet"),
         code=DISCOVERY_CODE,
     output:
         findings=report(
-            "results/discovery/{case}/findings.json",
+            out("discovery/{case}/findings.json"),
             category="Discovery",
             caption="../report/captions/discovery.rst",
         ),
-        markdown="results/discovery/{case}/findings.md",
-        gap="results/discovery/{case}/gap.parquet",
-        per_state="results/discovery/{case}/per_state_errors.parquet",
+        markdown=out("discovery/{case}/findings.md"),
+        gap=out("discovery/{case}/gap.parquet"),
+        per_state=out("discovery/{case}/per_state_errors.parquet"),
     log:
-        "results/discovery/{case}/logs/discover.log",
+        out("discovery/{case}/logs/discover.log"),
     benchmark:
-        "results/discovery/{case}/benchmarks/discover.tsv"
+        out("discovery/{case}/benchmarks/discover.tsv")
     conda:
         ENV
     threads: 1
@@ -76,15 +76,15 @@ rule discover:
 rule discovery_costa_reference:
     """A CoSTA network correction of the same starting model, trained on the same data."""
     input:
-        train="results/discovery/{case}/data/train.parquet",
-        held_out="results/discovery/{case}/data/held_out.parquet",
+        train=out("discovery/{case}/data/train.parquet"),
+        held_out=out("discovery/{case}/data/held_out.parquet"),
         code=DISCOVERY_CODE + TRAINING_CODE,
     output:
-        gap="results/discovery/{case}/costa_reference_gap.parquet",
+        gap=out("discovery/{case}/costa_reference_gap.parquet"),
     log:
-        "results/discovery/{case}/logs/costa_reference.log",
+        out("discovery/{case}/logs/costa_reference.log"),
     benchmark:
-        "results/discovery/{case}/benchmarks/costa_reference.tsv"
+        out("discovery/{case}/benchmarks/costa_reference.tsv")
     conda:
         ENV
     threads: 1
@@ -98,18 +98,18 @@ rule discovery_costa_reference:
 rule plot_discovery:
     """Equations' disagreement round by round, and the gap before and after."""
     input:
-        findings="results/discovery/{case}/findings.json",
-        gap="results/discovery/{case}/gap.parquet",
-        costa="results/discovery/{case}/costa_reference_gap.parquet",
+        findings=out("discovery/{case}/findings.json"),
+        gap=out("discovery/{case}/gap.parquet"),
+        costa=out("discovery/{case}/costa_reference_gap.parquet"),
         code=package_files("plots"),
     output:
         png=report(
-            "results/discovery/{case}/discovery.png",
+            out("discovery/{case}/discovery.png"),
             category="Discovery",
             caption="../report/captions/discovery.rst",
         ),
     log:
-        "results/discovery/{case}/logs/plot.log",
+        out("discovery/{case}/logs/plot.log"),
     conda:
         ENV
     threads: 1
@@ -120,20 +120,20 @@ rule plot_discovery:
 rule collect_discovery:
     """One row per case: what was hidden, what was found, the gap before and after."""
     input:
-        findings=expand("results/discovery/{case}/findings.json", case=DISCOVERY_CASES),
+        findings=expand(out("discovery/{case}/findings.json"), case=DISCOVERY_CASES),
         costa=expand(
-            "results/discovery/{case}/costa_reference_gap.parquet",
+            out("discovery/{case}/costa_reference_gap.parquet"),
             case=DISCOVERY_CASES,
         ),
         code=package_files("discover"),
     output:
         summary=report(
-            "results/discovery/summary.csv",
+            out("discovery/summary.csv"),
             category="Discovery",
             caption="../report/captions/discovery_summary.rst",
         ),
     log:
-        "results/discovery/logs/collect.log",
+        out("discovery/logs/collect.log"),
     conda:
         ENV
     threads: 1

@@ -1,18 +1,18 @@
 rule rollout:
     """Roll one model type (or the PBM) out on every test trajectory and score it (SPEC section 6)."""
     input:
-        test="results/{rep}data/test.parquet",
-        train="results/{rep}data/train.parquet",
+        test=out("{rep}data/test.parquet"),
+        train=out("{rep}data/train.parquet"),
         models=trained_instances,
         code=EVALUATION_CODE,
     output:
-        metrics="results/{rep}eval/{model}/metrics.parquet",
-        per_state="results/{rep}eval/{model}/per_state_errors.parquet",
-        forecasts="results/{rep}eval/{model}/forecasts.parquet",
+        metrics=out("{rep}eval/{model}/metrics.parquet"),
+        per_state=out("{rep}eval/{model}/per_state_errors.parquet"),
+        forecasts=out("{rep}eval/{model}/forecasts.parquet"),
     log:
-        "results/{rep}logs/rollout_{model}.log",
+        out("{rep}logs/rollout_{model}.log"),
     benchmark:
-        "results/{rep}benchmarks/rollout_{model}.tsv"
+        out("{rep}benchmarks/rollout_{model}.tsv")
     conda:
         ENV
     threads: 1
@@ -29,28 +29,28 @@ rule rollout:
 rule collect_evaluation:
     """All rollouts in one table, and the summary per type and window with bootstrap intervals."""
     input:
-        metrics=expand("results/{{rep}}eval/{model}/metrics.parquet", model=EVALUATED),
+        metrics=expand(out("{{rep}}eval/{model}/metrics.parquet"), model=EVALUATED),
         per_state=expand(
-            "results/{{rep}}eval/{model}/per_state_errors.parquet", model=EVALUATED
+            out("{{rep}}eval/{model}/per_state_errors.parquet"), model=EVALUATED
         ),
         code=package_files("summary.py", "claims.py", "paper.py"),
     output:
-        metrics="results/{rep}eval/metrics.parquet",
-        per_state="results/{rep}eval/per_state_errors.parquet",
+        metrics=out("{rep}eval/metrics.parquet"),
+        per_state=out("{rep}eval/per_state_errors.parquet"),
         summary=report(
-            "results/{rep}eval/summary.csv",
+            out("{rep}eval/summary.csv"),
             caption="../report/captions/summary.rst",
             category="Results",
         ),
         claims=report(
-            "results/{rep}eval/claims.csv",
+            out("{rep}eval/claims.csv"),
             caption="../report/captions/claims.rst",
             category="Results",
         ),
     log:
-        "results/{rep}logs/collect_evaluation.log",
+        out("{rep}logs/collect_evaluation.log"),
     benchmark:
-        "results/{rep}benchmarks/collect_evaluation.tsv"
+        out("{rep}benchmarks/collect_evaluation.tsv")
     conda:
         ENV
     threads: 1

@@ -3,40 +3,38 @@ rule report:
     input:
         notebook=f"{workflow.basedir}/report/report.py",
         errata=f"{workflow.basedir}/docs/errata.md",
-        datasets="results/figures/datasets.png",
-        training_curves="results/figures/training_curves.png",
-        error_violins="results/figures/error_violins.png",
-        blowups="results/figures/blowups.png",
-        rolling_forecast="results/figures/rolling_forecast.png",
-        summary="results/eval/summary.csv",
-        claims="results/eval/claims.csv",
-        per_state="results/eval/per_state_errors.parquet",
-        losses=expand(
-            "results/models/{model_type}/losses.parquet", model_type=MODEL_TYPES
-        ),
+        datasets=out("figures/datasets.png"),
+        training_curves=out("figures/training_curves.png"),
+        error_violins=out("figures/error_violins.png"),
+        blowups=out("figures/blowups.png"),
+        rolling_forecast=out("figures/rolling_forecast.png"),
+        summary=out("eval/summary.csv"),
+        claims=out("eval/claims.csv"),
+        per_state=out("eval/per_state_errors.parquet"),
+        losses=expand(out("models/{model_type}/losses.parquet"), model_type=MODEL_TYPES),
         sparsity=expand(
-            "results/models/{model_type}/sparsity.parquet", model_type=MODEL_TYPES
+            out("models/{model_type}/sparsity.parquet"), model_type=MODEL_TYPES
         ),
         benchmarks=job_benchmarks(""),
-        discovery_summary=["results/discovery/summary.csv"] if DISCOVERY_CASES else [],
+        discovery_summary=[out("discovery/summary.csv")] if DISCOVERY_CASES else [],
         discovery_figures=expand(
-            "results/discovery/{case}/discovery.png", case=DISCOVERY_CASES
+            out("discovery/{case}/discovery.png"), case=DISCOVERY_CASES
         ),
         discovery_findings=expand(
-            "results/discovery/{case}/findings.json", case=DISCOVERY_CASES
+            out("discovery/{case}/findings.json"), case=DISCOVERY_CASES
         ),
-        replicate_table=across_replicates("results/replicates/per_replicate.csv"),
-        replicate_aggregate=across_replicates("results/replicates/aggregate.csv"),
-        replicate_claims=across_replicates("results/replicates/claims.csv"),
-        replicate_blowups=across_replicates("results/replicates/blowups.png"),
+        replicate_table=across_replicates(out("replicates/per_replicate.csv")),
+        replicate_aggregate=across_replicates(out("replicates/aggregate.csv")),
+        replicate_claims=across_replicates(out("replicates/claims.csv")),
+        replicate_blowups=across_replicates(out("replicates/blowups.png")),
         code=package_files("report.py", "paper.py", "plots"),
     output:
-        html="report/report.html",
-        notebook="results/report/report.ipynb",
+        html=f"{REPORT}/report.html",
+        notebook=out("report/report.ipynb"),
     log:
-        "results/logs/report.log",
+        out("logs/report.log"),
     benchmark:
-        "results/benchmarks/report.tsv"
+        out("benchmarks/report.tsv")
     conda:
         ENV
     threads: 1

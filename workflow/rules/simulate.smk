@@ -3,11 +3,11 @@ rule simulate:
     input:
         code=SIMULATION_CODE,
     output:
-        data="results/{rep}data/{split}.parquet",
+        data=out("{rep}data/{split}.parquet"),
     log:
-        "results/{rep}logs/simulate_{split}.log",
+        out("{rep}logs/simulate_{split}.log"),
     benchmark:
-        "results/{rep}benchmarks/simulate_{split}.tsv"
+        out("{rep}benchmarks/simulate_{split}.tsv")
     conda:
         ENV
     threads: 1

@@ -1,19 +1,19 @@
 rule train:
     """Train the instances of one model type as one stacked ensemble (SPEC section 5)."""
     input:
-        train="results/{rep}data/train.parquet",
+        train=out("{rep}data/train.parquet"),
         code=TRAINING_CODE,
     output:
         models=expand(
-            "results/{{rep}}models/{{model_type}}/instance{i}.pt",
+            out("{{rep}}models/{{model_type}}/instance{i}.pt"),
             i=range(config["training"]["instances"]),
         ),
-        losses="results/{rep}models/{model_type}/losses.parquet",
-        sparsity="results/{rep}models/{model_type}/sparsity.parquet",
+        losses=out("{rep}models/{model_type}/losses.parquet"),
+        sparsity=out("{rep}models/{model_type}/sparsity.parquet"),
     log:
-        "results/{rep}logs/train_{model_type}.log",
+        out("{rep}logs/train_{model_type}.log"),
     benchmark:
-        "results/{rep}benchmarks/train_{model_type}.tsv"
+        out("{rep}benchmarks/train_{model_type}.tsv")
     conda:
         ENV
     threads: 1
