@@ -139,7 +139,7 @@ figure("rolling_forecast", width=950)
 # Blow-ups are out of 1000 rollouts for a network type (10 instances x 100 trajectories)
 # and out of 100 for the PBM; the median AN-RFMSE is over the rollouts that did not blow
 # up. Intervals are 95 % bootstrap intervals over instances (over trajectories for the
-# PBM). The paper's values are read off its figures (SPEC section 7), so they are
+# PBM). The paper's values are read off its figures (`docs/model.md` §7), so they are
 # approximate; medians it does not show are blank.
 
 # %%
@@ -158,7 +158,7 @@ show(
 )
 
 # %% [markdown]
-# Three further faithful runs of the authors' settings with other seeds (SPEC section 7)
+# Three further faithful runs of the authors' settings with other seeds (`docs/model.md` §7)
 # show how much one run varies: long-window blow-ups per run.
 
 # %%
@@ -179,7 +179,7 @@ show(claims[["claim", "verdict", "evidence", "likely_reason"]])
 #
 # The paper prints a squared error averaged from the start to each horizon and a
 # blow-up test on the final state; the figures above use the coded definition
-# (SPEC section 6). The same table with the printed definition:
+# (`docs/model.md` §6). The same table with the printed definition:
 
 # %%
 printed = summary[summary.definition == "printed"].copy()
