@@ -42,7 +42,10 @@ def figure(key: str, width: int = 900) -> None:
 
 
 def show(table: pd.DataFrame) -> None:
-    display(table.style.hide(axis="index").format(precision=4))
+    """A table without its index: whole-number columns (counts) as integers, a missing value as "—"."""
+    counts = [c for c in table.columns if pd.api.types.is_float_dtype(table[c]) and (table[c].dropna() % 1 == 0).all()]
+    table = table.astype({c: "Int64" for c in counts if table[c].notna().any()})
+    display(table.style.hide(axis="index").format(precision=4, na_rep="—"))
 
 
 sim, training, evaluation = config["simulation"], config["training"], config["evaluation"]
@@ -164,7 +167,7 @@ show(
 # %%
 runs = reference_runs().pivot(index="run", columns="model_type", values="blowups")
 ours = coded[coded.window == "long"].set_index("model_type")["blowups"].rename("this run")
-display(pd.concat([runs, ours.to_frame().T]).rename(columns=model_label))
+show(pd.concat([runs, ours.to_frame().T]).rename(columns=model_label).rename_axis("run").reset_index())
 
 # %% [markdown]
 # ### The paper's claims

@@ -8,26 +8,9 @@ import sys
 import nbformat
 import pandas as pd
 import pytest
-from conftest import REPOSITORY
+from conftest import REPOSITORY, snakemake
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake", "--snakefile", str(REPOSITORY / "Snakefile")]
-
-
-def snakemake(workdir, *args, check=True):
-    result = subprocess.run(
-        [*SNAKEMAKE, "--directory", str(workdir), "--cores", "2", *args],
-        capture_output=True, text=True, cwd=workdir,
-    )  # fmt: skip
-    if check and result.returncode != 0:
-        raise AssertionError(f"snakemake {args} failed:\n{result.stdout[-3000:]}\n{result.stderr[-6000:]}")
-    return result
-
-
-@pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory):
-    workdir = tmp_path_factory.mktemp("smoke")
-    snakemake(workdir, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"))
-    return workdir
 
 
 # the smoke config writes under results/smoke/ (config/smoke.yaml: output)
