@@ -18,7 +18,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-DAEMONS = ("munged", "mungekey", "slurmctld", "slurmd", "sbatch", "squeue", "sinfo")
+DAEMONS = ("munged", "mungekey", "slurmctld", "slurmd", "sbatch", "srun", "squeue", "sinfo")
 
 
 def missing_prerequisites() -> str | None:
@@ -96,7 +96,15 @@ def local_slurm(directory: Path, cpus: int = 2) -> Iterator[dict[str, str]]:
         (directory / sub).mkdir(exist_ok=True)
     conf = directory / "slurm.conf"
     conf.write_text(slurm_conf(directory, cpus, _memory_mb()))
-    env = {**os.environ, "SLURM_CONF": str(conf)}
+    # SLURM's commands find this cluster through SLURM_CONF. The executor plugin's job step
+    # drops every SLURM_* variable before its inner srun (a real cluster has
+    # /etc/slurm/slurm.conf), so an srun first on PATH sets it again.
+    wrappers = directory / "bin"
+    wrappers.mkdir(exist_ok=True)
+    srun = wrappers / "srun"
+    srun.write_text(f'#!/bin/sh\nSLURM_CONF={conf} exec {shutil.which("srun")} "$@"\n')
+    srun.chmod(0o755)
+    env = {**os.environ, "SLURM_CONF": str(conf), "PATH": f"{wrappers}{os.pathsep}{os.environ['PATH']}"}
     key = directory / "munge.key"
     subprocess.run(["mungekey", "--create", f"--keyfile={key}", "--force"], check=True, capture_output=True)
     key.chmod(0o600)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
@@ -43,6 +44,8 @@ def test_report_is_rendered_without_errors(smoke_run):
     html = (smoke_run / "results/smoke/report/report.html").read_text()
     assert "reproduced" in html and "Provenance" in html and html.count("<img") >= 5
     assert "Robustness across replicates" in html and "from a single run" in html
+    assert not re.findall(r'(?:src|href)="(?:https?:)?//', html)  # nothing from the network
+    assert ">nan<" not in html and ">—<" in html  # a missing value is a dash
 
 
 def test_two_replicates_are_aggregated_plotted_and_reported(tmp_path):
