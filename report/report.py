@@ -48,6 +48,13 @@ def show(table: pd.DataFrame) -> None:
     display(table.style.hide(axis="index").format(precision=4, na_rep="—"))
 
 
+def with_interval(value: float, low: float, high: float, spec: str = ".3g") -> str:
+    """'value [low, high]', or "—" where there is no value (no rollout left to take a median of)."""
+    if pd.isna(value):
+        return "—"
+    return f"{value:{spec}} [{low:{spec}}, {high:{spec}}]"
+
+
 sim, training, evaluation = config["simulation"], config["training"], config["evaluation"]
 
 # %% [markdown]
@@ -151,8 +158,8 @@ coded = summary[summary.definition == "coded"]
 table = coded.merge(paper_blowups(), on=["model_type", "window"], how="left").merge(
     paper_median_error(), on=["model_type", "window"], how="left"
 )
-table["blow-ups"] = table.apply(lambda r: f"{r.blowups} [{r.blowups_low:.0f}, {r.blowups_high:.0f}]", axis=1)
-table["median AN-RFMSE"] = table.apply(lambda r: f"{r['median']:.3g} [{r.median_low:.3g}, {r.median_high:.3g}]", axis=1)
+table["blow-ups"] = table.apply(lambda r: with_interval(r.blowups, r.blowups_low, r.blowups_high, ".0f"), axis=1)
+table["median AN-RFMSE"] = table.apply(lambda r: with_interval(r["median"], r.median_low, r.median_high), axis=1)
 table["model"] = table.model_type.map(model_label)
 show(
     table[["model", "window", "blow-ups", "paper_blowups", "median AN-RFMSE", "paper_median"]].rename(
@@ -227,10 +234,10 @@ if inputs.get("replicate_aggregate"):
     )
     spread["model"] = spread.model_type.map(model_label)
     spread["blow-ups mean [95 %]"] = spread.apply(
-        lambda r: f"{r.blowups_mean:.1f} [{r.blowups_low:.1f}, {r.blowups_high:.1f}]", axis=1
+        lambda r: with_interval(r.blowups_mean, r.blowups_low, r.blowups_high, ".1f"), axis=1
     )
     spread["median AN-RFMSE mean [95 %]"] = spread.apply(
-        lambda r: f"{r.median_mean:.3g} [{r.median_low:.3g}, {r.median_high:.3g}]", axis=1
+        lambda r: with_interval(r.median_mean, r.median_low, r.median_high), axis=1
     )
     show(
         spread[["model", "window", "per replicate", "blow-ups mean [95 %]", "blowups_sd", "paper_blowups",
@@ -241,7 +248,7 @@ if inputs.get("replicate_aggregate"):
     verdicts = pd.read_csv(inputs["replicate_claims"][0]).fillna("")
     display(Markdown("\n".join(f"- {v.claim}: **{v.verdict}** ({v.conclusion})." for v in verdicts.itertuples())))
     verdicts["effect median [95 %]"] = verdicts.apply(
-        lambda r: f"{r.effect_median:.3g} [{r.effect_low:.3g}, {r.effect_high:.3g}]", axis=1
+        lambda r: with_interval(r.effect_median, r.effect_low, r.effect_high), axis=1
     )
     show(verdicts[["claim", "verdict", "held", "effects", "effect median [95 %]", "likely_reason"]])
 else:

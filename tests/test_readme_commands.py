@@ -99,7 +99,7 @@ def check_own_data(command, smoke_run, tmp_path):
 
 
 def check_benchmark(command, smoke_run, tmp_path):
-    result = run_command(smoke_run, f"{command} --config config/smoke.yaml --batches 2", timeout=600)
+    result = run_command(smoke_run, f"{command} --config config/config.yaml config/smoke.yaml --batches 2", timeout=600)
     assert result.returncode == 0, result.stderr[-4000:]
 
 

@@ -51,11 +51,11 @@ def test_a_run_killed_during_training_resumes_to_the_same_bytes(smoke_run, tmp_p
         (workdir / path).parent.mkdir(parents=True, exist_ok=True)
         (workdir / path).write_bytes(b"half written")
 
-    locked = run_command(workdir, SMOKE_COMMAND)
+    refused = run_command(workdir, SMOKE_COMMAND)  # the half-written outputs are not taken as results
+    assert refused.returncode != 0 and "--rerun-incomplete" in refused.stderr
+    locked = run_command(workdir, on_smoke(RESUME))  # nor is the dead run's lock ignored
     assert locked.returncode != 0 and "--unlock" in locked.stderr
     assert run_command(workdir, on_smoke(UNLOCK)).returncode == 0
-    refused = run_command(workdir, SMOKE_COMMAND)
-    assert refused.returncode != 0 and "--rerun-incomplete" in refused.stderr
 
     resumed = run_command(workdir, on_smoke(RESUME))
     assert resumed.returncode == 0, f"{resumed.stdout[-3000:]}\n{resumed.stderr[-6000:]}"
