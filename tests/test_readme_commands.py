@@ -12,7 +12,7 @@ How each is covered:
   runs two replicates end to end);
 - the commands after a crash run in tests/test_resume.py, the cluster command in
   tests/test_slurm.py;
-- the training benchmark runs here on the smoke config with 2 batches (as written under
+- the training benchmark runs here with 2 timed batches per variant (as written under
   ``-m slow``); ``pytest -m slow`` is collected here (it is the slow suite itself); the conda
   command runs as a dry run where conda is installed.
 """
@@ -99,7 +99,7 @@ def check_own_data(command, smoke_run, tmp_path):
 
 
 def check_benchmark(command, smoke_run, tmp_path):
-    result = run_command(smoke_run, f"{command} --config config/config.yaml config/smoke.yaml --batches 2", timeout=600)
+    result = run_command(smoke_run, f"{command} --batches 2", timeout=600)
     assert result.returncode == 0, result.stderr[-4000:]
 
 
