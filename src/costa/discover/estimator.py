@@ -35,8 +35,8 @@ class StateSpaceModel:
     """A discrete-time model with additive Gaussian noise (see the module docstring).
 
     ``transition`` and ``observe`` map states (B, L) and inputs (B, m) to (B, L) and
-    (B, C); ``scale`` (L,) is each state's typical magnitude (finite-difference steps
-    are ``1e-6 * scale``).
+    (B, C); ``process_std`` is (L,), or (n, L) for a std per trajectory; ``scale`` (L,)
+    is each state's typical magnitude (finite-difference steps are ``1e-6 * scale``).
     """
 
     transition: Batched
@@ -95,21 +95,29 @@ def _update(mean, cov, y, u, model: StateSpaceModel, step):
 
 
 def smooth(
-    model: StateSpaceModel, y: np.ndarray, u: np.ndarray, mean0: np.ndarray, cov0: np.ndarray
+    model: StateSpaceModel,
+    y: np.ndarray,
+    u: np.ndarray,
+    mean0: np.ndarray,
+    cov0: np.ndarray,
+    backward: bool = True,
 ) -> Smoothed:
     """Filter forward, smooth backward.
 
     y (n, K, C) with NaN where not measured, u (n, K, m), the prior of the first
-    state mean0 (n, L) and cov0 (n, L, L) or (L, L).
+    state mean0 (n, L) and cov0 (n, L, L) or (L, L).  ``backward`` False: the filter
+    only (innovations and likelihood; ``mean`` and ``std`` are then the filtered ones
+    at the last step, (n, 1, L)), which keeps no history and fits many rows at once.
     """
     n, steps, _ = y.shape
     size = mean0.shape[-1]
     step = 1e-6 * model.scale
-    q = np.diag(model.process_std**2)
-    means = np.empty((n, steps, size))
-    covs = np.empty((n, steps, size, size))
-    transitions = np.empty((n, steps - 1, size, size))
-    predicted = np.empty((n, steps - 1, size))
+    q = np.broadcast_to(model.process_std**2, (n, size))[:, :, None] * np.eye(size)
+    kept = steps if backward else 1
+    means = np.empty((n, kept, size))
+    covs = np.empty((n, kept, size, size))
+    transitions = np.empty((n, kept - 1, size, size))
+    predicted = np.empty((n, kept - 1, size))
     innovation = np.empty(y.shape)
     log_likelihood = np.zeros(n)
     mean, cov = mean0.astype(float), np.broadcast_to(cov0, (n, size, size)).astype(float)
@@ -117,13 +125,15 @@ def smooth(
         for k in range(steps):
             mean, cov, innovation[:, k], ll = _update(mean, cov, y[:, k], u[:, k], model, step)
             log_likelihood += ll
-            means[:, k], covs[:, k] = mean, cov
+            slot = k if backward else 0
+            means[:, slot], covs[:, slot] = mean, cov
             if k + 1 < steps:
                 mean, a = jacobian(model.transition, mean, u[:, k], step)
                 cov = a @ cov @ np.swapaxes(a, 1, 2) + q
-                transitions[:, k], predicted[:, k] = a, mean
+                if backward:
+                    transitions[:, k], predicted[:, k] = a, mean
         smoothed_mean, smoothed_cov = means.copy(), covs.copy()
-        for k in range(steps - 2, -1, -1):
+        for k in range(kept - 2, -1, -1):
             a = transitions[:, k]
             predicted_cov = a @ covs[:, k] @ np.swapaxes(a, 1, 2) + q
             gain = np.swapaxes(np.linalg.solve(predicted_cov, a @ covs[:, k]), 1, 2)  # P A^T Ppred^-1

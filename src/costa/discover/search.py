@@ -40,7 +40,7 @@ from .library import Feature
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
 from .weak_form import EquationTest, WeakForm, equation_tests, estimate_noise
 
-__all__ = ["KEEP_LEVEL", "Candidate", "DiscoverySettings", "Round", "discover"]
+__all__ = ["KEEP_LEVEL", "Candidate", "DiscoverySettings", "Round", "discover", "naming_order"]
 
 #: a term is kept only if its bootstrap interval at this level excludes zero (the findings
 #: report it and the 95 % interval, which lies inside it)
@@ -74,6 +74,8 @@ class DiscoverySettings:
     noise_draws: int = 8  # Monte Carlo draws for the residual's noise scale
     equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
     new_mechanism_margin: float = 0.05  # a new effect must gain this share more BIC than refining a named one
+    screen_trajectories: int = 8  # partial measurements: trajectories on which every hypothesis is scored first
+    walks: tuple[float, ...] = (0.3, 3.0)  # ... random-walk steps of a hypothesis' delta, in noise stds per window
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
 
 
@@ -383,21 +385,21 @@ def _consequences(h: Hypothesis, reads: Mapping[str, frozenset[str]]) -> set[str
     return computed
 
 
-def _naming_order(good: Sequence[Candidate], named: Sequence[str], reads) -> list[Candidate]:
-    """Equally good explanations in the order they are named: one refining an effect named in an
-    earlier round; then the cause before its consequences (a part computed from another
-    explanation's part, input or property comes after it); then fewest terms; then an input
-    before an added flow, a transfer, a part and a property; then the earliest computed part
-    (the order listed, for the other kinds)."""
-    downstream = set().union(*(_consequences(c.hypothesis, reads) for c in good))
+def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:
+    """Equally good explanations (items with a ``hypothesis``) in the order they are named: one
+    refining an effect named in an earlier round; then the cause before its consequences (a part
+    computed from another explanation's part, input or property comes after it); then fewest
+    terms (``terms(item)``); then an input before an added flow, a transfer, a part and a
+    property; then the earliest computed part (the order listed, for the other kinds)."""
+    downstream = set().union(*(_consequences(item.hypothesis, reads) for item in items))
 
-    def key(c: Candidate) -> tuple:
-        h = c.hypothesis
+    def key(item) -> tuple:
+        h = item.hypothesis
         order = {"part": PART_ORDER, "property": tuple(PROPERTIES), "input": INPUTS}.get(h.kind, (h.target,))
         consequence = h.kind == "part" and h.target in downstream
-        return (h.key not in named, consequence, len(c.features), PREFERENCE[h.kind], order.index(h.target))
+        return (h.key not in named, consequence, terms(item), PREFERENCE[h.kind], order.index(h.target))
 
-    return sorted(good, key=key)
+    return sorted(items, key=key)
 
 
 def discover_round(
@@ -452,7 +454,7 @@ def discover_round(
         return Round(model, tests, where, ranking, None, [], verdict, rich, window)
     with np.errstate(all="ignore"):
         reads = model.reads(problem.left_x[:1, :1], problem.left_u[:1, :1])
-    chosen, *equivalent = _naming_order(good, named, reads)
+    chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
     verdict = (
         f"{chosen.hypothesis.describe(model)}; the correction removes {chosen.explained:.0%} of the excess residual"
     )
