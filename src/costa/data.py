@@ -215,9 +215,7 @@ def arrays(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     and equal-length trajectories (a sparse table raises, naming what is missing)."""
     incomplete = incomplete_states(table)
     if incomplete:
-        raise TrajectoryDataError(
-            "this needs every state x1..x8 at every step, but " + "; ".join(incomplete)
-        )
+        raise TrajectoryDataError("this needs every state x1..x8 at every step, but " + "; ".join(incomplete))
     ordered = _ordered(table)
     return _stack(ordered, STATES), _stack(ordered, INPUTS)
 
