@@ -65,9 +65,28 @@ def check_consistency(config: Mapping[str, Any]) -> None:
         raise ConfigError(
             f"discovery.user_data.name {user['name']!r} is also a shipped case in discovery.cases; choose another name"
         )
+    _check_cell(config["physics"])
+    _check_gap_windows(user)
     copied = evaluation["copied_samples"]
     if max(copied.values()) >= steps:
         raise ConfigError(f"evaluation.copied_samples {copied} must be below simulation.steps = {steps}")
+
+
+def _check_cell(physics: Mapping[str, Any]) -> None:
+    from .physics import parameters_from_config
+
+    try:
+        parameters_from_config(physics["constants"], physics["overrides"], physics["cell"])
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
+
+
+def _check_gap_windows(user: Mapping[str, Any] | None) -> None:
+    for name, (low, high) in ((user or {}).get("gap_windows") or {}).items():
+        if not low < high:
+            raise ConfigError(
+                f"discovery.user_data.gap_windows.{name} = [{low}, {high}): the start must be below the stop"
+            )
 
 
 def load_config(*paths: str | Path, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:

@@ -175,7 +175,7 @@ def job_benchmarks(rep):
 
 
 def all_targets():
-    targets = [f"{REPORT}/report.html"]
+    targets = [f"{REPORT}/report.html", out("cell_constants.csv")]
     targets += expand(out("discovery/{case}/discovery.png"), case=DISCOVERY_CASES)
     targets += across_replicates(
         out("replicates/aggregate.csv"),

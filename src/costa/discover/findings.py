@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+import pandas as pd
+
 from ..variables import MEANING, STATES
 from .pipeline import DiscoveryResult
 from .search import KEEP_LEVEL, Candidate, Round
@@ -80,8 +82,23 @@ def _round(index: int, r: Round) -> dict[str, Any]:
     return found
 
 
-def findings(result: DiscoveryResult, name: str, start, meta: Mapping[str, Any]) -> dict[str, Any]:
-    """Everything a run found; ``meta`` describes the data (and, for a shipped case, what is hidden)."""
+GLOSSARY = "docs/glossary.md"
+
+
+def findings(
+    result: DiscoveryResult,
+    name: str,
+    start,
+    meta: Mapping[str, Any],
+    channels: pd.DataFrame | None = None,
+    constants: pd.DataFrame | None = None,
+) -> dict[str, Any]:
+    """Everything a run found; ``meta`` describes the data (and, for a shipped case, what is hidden).
+
+    ``channels`` (:func:`costa.data.channel_report`) and ``constants``
+    (:func:`costa.physics.constants_table` of the starting model's physics) are
+    recorded when given.
+    """
     rounds = [_round(i + 1, r) for i, r in enumerate(result.rounds)]
     named = [r["named"]["hypothesis"] for r in rounds if r["named"]]
     first = rounds[0]
@@ -99,9 +116,16 @@ def findings(result: DiscoveryResult, name: str, start, meta: Mapping[str, Any])
             before, after, floor = gap.loc["starting model", w], gap.loc["corrected model", w], result.floor[w]
             shrink[w] = float(1 - after / before) if before > 0 else 0.0
             above_floor[w] = float(min(1.0, (before - after) / (before - floor))) if before > floor else 0.0
+    extra: dict[str, Any] = {}
+    if channels is not None:
+        extra["channels"] = channels.astype(object).where(channels.notna(), None).to_dict(orient="records")
+    if constants is not None:
+        extra["constants"] = constants.to_dict(orient="records")
     return {
         "case": name,
+        "glossary": GLOSSARY,
         **dict(meta),
+        **extra,
         "starting_model": start.name,
         "outcome": outcome,
         "flagged_equations": first["flagged"],
@@ -111,6 +135,8 @@ def findings(result: DiscoveryResult, name: str, start, meta: Mapping[str, Any])
         "corrected_model": result.corrected.describe(),
         "gap": {
             "definition": "median over held-out rollouts of the coded AN-RFMSE per window",
+            "windows": {w: list(map(int, bounds)) for w, bounds in result.windows.items()},
+            "dt_s": result.dt,
             "errors": result.gap.to_dict(orient="records"),
             "noise_floor": result.floor,
             "shrink": shrink,
@@ -122,7 +148,14 @@ def findings(result: DiscoveryResult, name: str, start, meta: Mapping[str, Any])
 
 def findings_markdown(f: Mapping[str, Any]) -> str:
     """The findings as a short readable document."""
-    lines = [f"# Discovery: {f['case']}", ""]
+    lines = [
+        f"# Discovery: {f['case']}",
+        "",
+        f"Every symbol and term below (x1..x8, c2, g1, k0..k18, chi2/dof, z, BIC gain, inclusion, noise floor, "
+        f"AN-RFMSE ...) is explained in `{f.get('glossary', GLOSSARY)}` of the repository; `docs/own-data.md` "
+        "shows how to read this page.",
+        "",
+    ]
     if f.get("hidden"):
         lines += [f"**Hidden in the data** (not told to the workflow): {f['hidden']} ({f['kind']}).", ""]
     lines += [
@@ -131,6 +164,10 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
         f"**Outcome**: {f['outcome']}.",
         "",
     ]
+    if f.get("channels"):
+        lines += ["**Measured channels**:", ""]
+        lines += [f"- {line}" for line in _channel_lines(f["channels"])]
+        lines.append("")
     for r in f["rounds"]:
         lines += [f"## Round {r['round']}" + (" (richer term library)" if r["richer_library"] else ""), ""]
         lines += [f"Residuals averaged over windows of {r['window_steps']} steps.", ""]
@@ -184,6 +221,14 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
     for row in g["errors"]:
         errors.setdefault(row["model"], {})[row["window"]] = row["error"]
     windows = list(g["noise_floor"])
+    if "windows" in g:
+        dt = g["dt_s"]
+        lines += [
+            "Windows in steps of the held-out trajectories (dt = "
+            + f"{dt:g} s): "
+            + ", ".join(f"{w} [{a}, {b}) = {a * dt:g}-{b * dt:g} s" for w, (a, b) in g["windows"].items()),
+            "",
+        ]
     lines.append("| model | " + " | ".join(windows) + " |")
     lines.append("|---|" + "---|" * len(windows))
     lines += [f"| {m} | " + " | ".join(f"{e[w]:.4f}" for w in windows) + " |" for m, e in errors.items()]
@@ -207,4 +252,16 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
         "",
         f"Discovery took {f['discovery_seconds']} s.",
     ]
+    if f.get("constants"):
+        lines += ["", "<details><summary>The cell's constants (the starting model's)</summary>", ""]
+        lines += ["| constant | value | unit | from |", "|---|---|---|---|"]
+        lines += [f"| {c['constant']} | {c['value']:.6g} | {c['unit']} | {c['source']} |" for c in f["constants"]]
+        lines += ["", "</details>"]
     return "\n".join(lines) + "\n"
+
+
+def _channel_lines(channels: list[Mapping[str, Any]]) -> list[str]:
+    from ..data import format_channel_report
+
+    table = pd.DataFrame(channels).astype({"interval_s": float, "first_s": float, "last_s": float})
+    return format_channel_report(table).splitlines()

@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 
 from .. import seeds
-from ..data import TrajectoryDataError, arrays, load_trajectories, to_table
-from ..metrics import EvaluationSettings, state_scale
+from ..data import TrajectoryDataError, arrays, incomplete_states, load_trajectories, time_step, to_table
+from ..metrics import EvaluationSettings, state_scale, windows_from_fractions
 from ..physics import CellModel, model_from_config
 from ..simulate import SimulationSettings, simulate_set
 from ..variables import INPUTS
@@ -21,7 +21,15 @@ from .gap import gap_tables, noise_floor
 from .search import DiscoverySettings, Round, discover
 from .weak_form import estimate_noise
 
-__all__ = ["DiscoveryData", "DiscoveryResult", "case_tables", "run_discovery", "split_held_out", "starting_model"]
+__all__ = [
+    "DiscoveryData",
+    "DiscoveryResult",
+    "case_tables",
+    "gap_settings",
+    "run_discovery",
+    "split_held_out",
+    "starting_model",
+]
 
 
 @dataclass(frozen=True)
@@ -44,6 +52,8 @@ class DiscoveryResult:
     per_state: pd.DataFrame
     floor: dict[str, float]
     seconds: float
+    windows: dict[str, tuple[int, int]]  # the gap's windows [start, stop) in steps of the held-out data
+    dt: float  # the data's time step [s]
 
 
 def starting_model(config: Mapping, name: str) -> CellModel:
@@ -97,11 +107,37 @@ def _check_suitable(x: np.ndarray, u: np.ndarray, window: int, source: str) -> N
 
 
 def _data(train: pd.DataFrame, held_out: pd.DataFrame, source: str, window: int) -> DiscoveryData:
+    incomplete = incomplete_states(pd.concat([train, held_out], ignore_index=True))
+    if incomplete:
+        raise TrajectoryDataError(
+            f"{source}: discovery needs every state x1..x8 measured at every step, but "
+            + "; ".join(incomplete)
+            + " (docs/own-data.md, the data contract)"
+        )
     x, u = arrays(train)
     xh, uh = arrays(held_out)
     _check_suitable(x, u, window, source)
-    steps = np.diff(train["time_s"].to_numpy()[:2])
-    return DiscoveryData(x, u, xh, uh, float(steps[0]))
+    return DiscoveryData(x, u, xh, uh, time_step(train))
+
+
+def gap_settings(config: Mapping, name: str, steps: int) -> EvaluationSettings:
+    """How the gap on held-out trajectories of ``steps`` samples is scored.
+
+    A shipped case is simulated at ``simulation.steps`` and scored in the config's
+    evaluation windows (the paper's at 5000 steps).  Your own data are scored in
+    ``discovery.user_data.gap_windows``, fractions of the held-out length (by
+    default the paper's proportions: the first 2 %, 2-50 %, 50-100 %).
+    """
+    evaluation = EvaluationSettings.from_config(config["evaluation"])
+    user = config["discovery"]["user_data"]
+    if not user or user["name"] != name:
+        evaluation.check(steps)
+        return evaluation
+    try:
+        windows = windows_from_fractions(user["gap_windows"], steps)
+    except ValueError as error:
+        raise TrajectoryDataError(f"discovery.user_data.gap_windows: {error}; make the window wider") from None
+    return replace(evaluation, windows=windows, horizons={w: stop for w, (_, stop) in windows.items()})
 
 
 def settings_from_config(config: Mapping) -> DiscoverySettings:
@@ -126,8 +162,7 @@ def run_discovery(
     rounds, noise = discover(start, data.x, data.u, data.dt, settings)
     seconds = time.perf_counter() - started
     corrected = next((r.chosen.corrected for r in reversed(rounds) if r.chosen is not None), start)
-    evaluation = EvaluationSettings.from_config(config["evaluation"])
-    evaluation.check(data.x_held_out.shape[1])
+    evaluation = gap_settings(config, name, data.x_held_out.shape[1])
     scale = state_scale(data.x)
     models = (
         {"starting model": start, "corrected model": corrected} if corrected is not start else {"starting model": start}
@@ -137,4 +172,4 @@ def run_discovery(
     # the held-out trajectories' own noise: their sensors (or their noise level) may differ
     held_out_noise = estimate_noise(data.x_held_out)
     floor = noise_floor(corrected, data.x_held_out, data.u_held_out, data.dt, held_out_noise, scale, evaluation, rng)
-    return DiscoveryResult(rounds, noise, corrected, gap, per_state, floor, seconds)
+    return DiscoveryResult(rounds, noise, corrected, gap, per_state, floor, seconds, dict(evaluation.windows), data.dt)

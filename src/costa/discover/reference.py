@@ -4,17 +4,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import numpy as np
 import pandas as pd
 
 from .. import seeds
-from ..data import arrays
+from ..data import arrays, time_step
 from ..forecast import rollout_networks
-from ..metrics import EvaluationSettings, state_scale
+from ..metrics import state_scale
 from ..models import NetworkModel
 from ..physics import CellModel
 from ..train import ModelType, TrainingSettings, train_ensemble, training_data
 from .gap import gap_tables
+from .pipeline import gap_settings
 
 __all__ = ["costa_reference"]
 
@@ -33,7 +33,7 @@ def costa_reference(
     settings = TrainingSettings.from_config(training)
     x, u = arrays(train)
     xh, uh = arrays(held_out)
-    dt = float(np.diff(train["time_s"].to_numpy()[:2])[0])
+    dt = time_step(train)
     data = training_data(x, u, dt, "costa", start)
     model_type = ModelType("costa_reference", "costa", 0.0)
     init = [
@@ -43,6 +43,6 @@ def costa_reference(
     ensemble, _ = train_ensemble(data, model_type, settings, init, shuffle)
     network = NetworkModel(model_type, ensemble, data.normalisation, start, {})
     forecasts = rollout_networks(network, xh, uh, dt, config["evaluation"]["copied_samples"]["networks"])
-    evaluation = EvaluationSettings.from_config(config["evaluation"])
+    evaluation = gap_settings(config, name, xh.shape[1])
     gap, _ = gap_tables({"CoSTA reference": forecasts}, xh, uh, dt, state_scale(x), evaluation)
     return gap

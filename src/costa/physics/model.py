@@ -300,6 +300,6 @@ def ablated_model(base: CellModel | None = None, liquidus_temperature: float = 9
 
 def model_from_config(physics: Mapping) -> tuple[CellModel, CellModel]:
     """(true model, ablated PBM) from the ``physics`` section of the config."""
-    params = parameters_from_config(physics["constants"], physics.get("overrides"))
+    params = parameters_from_config(physics["constants"], physics.get("overrides"), physics.get("cell"))
     true = true_model(params, physics["equations"])
     return true, ablated_model(true, physics["ablated_liquidus_temperature"])
