@@ -146,9 +146,7 @@ class Hypothesis:
             part = model.parts[self.target]
             return model.with_part(
                 self.target,
-                part.renamed(
-                    f"{part.formula} + {formula}", lambda v, k, q: part(v, k, q) + correction(v, q, part(v, k, q))
-                ),
+                part.renamed(f"{part.formula} + {formula}", lambda v, k, q: _plus(part(v, k, q), correction, v, q)),
             )
         term = BalanceTerm(
             f"discovered_{self.target.replace('->', '_to_')}", formula, self.unit, dict(self.targets),
@@ -164,6 +162,11 @@ class Hypothesis:
             name = f.name.replace("own", own)
             parts.append(f"{c:.4g}" if name == "1" else f"{c:.4g}*{name}")
         return " + ".join(parts).replace("+ -", "- ") or "0"
+
+
+def _plus(own, correction, v, q):
+    """A part's value plus its correction, which may read the part's own value."""
+    return own + correction(v, q, own)
 
 
 #: On a tie, which kind is named first: an input that is not what reached the cell (a
