@@ -23,13 +23,9 @@ import pandas as pd
 
 from .data import to_table
 from .physics import CellModel, CellVariables
-from .variables import STATES
+from .variables import CHANNELS, STATES
 
 __all__ = ["CHANNELS", "Sensor", "SensorSet", "channel_values", "measure", "sensor_sets_from_config"]
-
-#: every quantity a sensor may measure, in a fixed order
-CHANNELS: tuple[str, ...] = (*STATES, "U_cell", "c2", "c3")
-
 
 @dataclass(frozen=True)
 class Sensor:

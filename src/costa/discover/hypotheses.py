@@ -24,7 +24,7 @@ equivalent).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -121,6 +121,10 @@ class Hypothesis:
     def shifted(self, model: CellModel, values: np.ndarray) -> CellModel:
         """``model`` with delta given sample by sample (an array shaped like the data it will see)."""
         return self._with(model, lambda v, q, own: values, "delta(t)")
+
+    def driven(self, model: CellModel, source: Callable[[], np.ndarray]) -> CellModel:
+        """``model`` with delta read from ``source()`` at every evaluation (a batch's current values)."""
+        return self._with(model, lambda v, q, own: source(), "delta(t)")
 
     def _with(self, model: CellModel, correction, formula: str) -> CellModel:
         if self.kind in ("property", "input"):

@@ -19,13 +19,17 @@ from ..sensors import channel_values
 from ..variables import STATES
 from .estimator import Smoothed, StateSpaceModel, smooth
 
-__all__ = ["NOMINAL_STATE", "PRIOR_STD", "cell_state_space", "estimate_states", "prior"]
+__all__ = ["INPUT_TOLERANCE", "NOMINAL_STATE", "PRIOR_STD", "REFRESH_EVERY", "cell_state_space", "estimate_states", "prior"]
 
 #: a nominal operating point [kg x5, degC x3] and how far a cell may be from it (1 std) before anything is measured
 NOMINAL_STATE = np.array([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0, 580.0])
 PRIOR_STD = np.array([1000.0, 150.0, 400.0, 2500.0, 150.0, 10.0, 40.0, 40.0])
 #: process noise per step [state unit]: the model is trusted to this much per 10 s step
 PROCESS_STD = 1e-7 * NOMINAL_STATE
+#: the smoother re-takes a trajectory's Jacobians every this many steps, or sooner when an input
+#: moves by more than this [kg/s, A, kg/s, kg/s, m] (an impulse, a new current)
+REFRESH_EVERY = 4
+INPUT_TOLERANCE = np.array([0.5, 500.0, 0.5, 0.5, 2e-4])
 
 
 def cell_state_space(
@@ -71,4 +75,5 @@ def estimate_states(
     model: CellModel, y: np.ndarray, u: np.ndarray, channels: Sequence[str], noise_std: np.ndarray, dt: float
 ) -> Smoothed:
     """Smoothed states (n, K, 8) of ``model`` given measured channels y (n, K, C) (NaN: not sampled)."""
-    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, *prior(y, channels))
+    space = cell_state_space(model, channels, noise_std, dt)
+    return smooth(space, y, u, *prior(y, channels), refresh_every=REFRESH_EVERY, input_tolerance=INPUT_TOLERANCE)

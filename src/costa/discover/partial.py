@@ -28,7 +28,7 @@ from ..physics import CellModel
 from ..sensors import channel_values
 from .estimator import Smoothed, StateSpaceModel, smooth
 from .hypotheses import Hypothesis
-from .observed import NOMINAL_STATE, PROCESS_STD, prior
+from .observed import INPUT_TOLERANCE, NOMINAL_STATE, PROCESS_STD, REFRESH_EVERY, prior
 from .weak_form import estimate_noise
 
 __all__ = ["Observations", "HypothesisScore", "channel_noise", "hypothesis_scales", "score_hypotheses", "smooth_hypothesis"]
@@ -83,20 +83,25 @@ def _space(
     model: CellModel, hypotheses: Sequence[Hypothesis], scales: np.ndarray, obs: Observations, walk: np.ndarray
 ) -> StateSpaceModel:
     """z = (x1..x8, scaled delta) for a batch of rows; the input carries u1..u5 and the row's
-    hypothesis index; ``walk`` (rows,) is each row's random-walk std of delta per step."""
+    hypothesis index; ``walk`` (rows,) is each row's random-walk std of delta per step.  One model
+    is composed for the whole batch: hypothesis j reads the deltas of the rows it owns (0 elsewhere)."""
+    current: dict[int, np.ndarray] = {}
+    composed = model
+    for j, h in enumerate(hypotheses):
+        composed = h.driven(composed, lambda j=j: current[j])
 
     def split(z, u):
         which = u[:, 5].astype(int)
-        delta = z[:, 8] * np.where(which >= 0, scales[np.maximum(which, 0)], 0.0)
-        return _composed(model, hypotheses, which, delta), z[:, :8], u[:, :5]
+        for j, scale in enumerate(scales):
+            current[j] = np.where(which == j, z[:, 8] * scale, 0.0)
+        return z[:, :8], u[:, :5]
 
     def transition(z, u):
-        shifted, x, inputs = split(z, u)
-        return np.concatenate([rk4_step(shifted.rhs, x, inputs, obs.dt), z[:, 8:]], axis=1)
+        x, inputs = split(z, u)
+        return np.concatenate([rk4_step(composed.rhs, x, inputs, obs.dt), z[:, 8:]], axis=1)
 
     def observe(z, u):
-        shifted, x, inputs = split(z, u)
-        return channel_values(shifted, x, inputs, obs.channels)
+        return channel_values(composed, *split(z, u), obs.channels)
 
     process = np.column_stack([np.tile(PROCESS_STD, (len(walk), 1)), walk])
     return StateSpaceModel(transition, observe, process, obs.noise, np.append(NOMINAL_STATE, 1.0))
@@ -158,7 +163,8 @@ def _filter(model, hypotheses, scales, obs: Observations, window: int, walks, ba
     pairs, y, u, mean, cov = _rows(obs, hypotheses, walks, scales, null=not backward)
     walk = np.repeat([w for _, w in pairs], obs.y.shape[0]) / np.sqrt(window)
     space = _space(model, hypotheses, scales, obs, walk)
-    return pairs, smooth(space, y, u, mean, cov, backward=backward)
+    tolerance = np.append(INPUT_TOLERANCE, 0.5)  # the hypothesis index never moves
+    return pairs, smooth(space, y, u, mean, cov, backward, REFRESH_EVERY, tolerance)
 
 
 def score_hypotheses(

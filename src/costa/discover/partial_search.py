@@ -30,7 +30,7 @@ import numpy as np
 
 from ..physics import CellModel
 from ..sensors import channel_values
-from ..variables import STATES
+from ..variables import CHANNELS
 from .estimator import ChannelTest, Smoothed, innovation_tests
 from .hypotheses import Hypothesis, candidate_hypotheses
 from .library import Feature
@@ -40,10 +40,6 @@ from .regression import GramSystem, _solve, coefficient_samples, resample_weight
 from .search import KEEP_LEVEL, DiscoverySettings, naming_order
 
 __all__ = ["PartialRound", "discover_partial", "separating_channel"]
-
-#: every channel a sensor could add
-ALL_CHANNELS = (*STATES, "U_cell", "c2", "c3")
-
 
 @dataclass
 class PartialRound:
@@ -99,7 +95,7 @@ def separating_channel(histories: Sequence[np.ndarray], u: np.ndarray, model: Ce
     """The unmeasured channel on which the smoothed state histories (each (n, K, 8)) that equally
     good explanations imply differ most, relative to the channel's spread: measuring it would
     tell them apart."""
-    unmeasured = [c for c in ALL_CHANNELS if c not in measured]
+    unmeasured = [c for c in CHANNELS if c not in measured]
     if len(histories) < 2 or not unmeasured:
         return None
     with np.errstate(all="ignore"):
