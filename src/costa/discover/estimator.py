@@ -56,41 +56,6 @@ def jacobian(fn: Batched, z: np.ndarray, u: np.ndarray, step: np.ndarray) -> tup
     return values[:, 0], np.swapaxes(values[:, 1:] - values[:, :1], 1, 2) / step
 
 
-class _Linearisation:
-    """Jacobians of one function per row, re-taken only for rows whose cache is stale: older than
-    ``every`` steps, or whose input moved beyond ``tolerance`` (m,) since it was taken.  Between
-    refreshes the function itself is still evaluated at every step; only its slope is reused."""
-
-    def __init__(self, fn: Batched, step: np.ndarray, every: int, tolerance: np.ndarray | None):
-        self.fn, self.step, self.every, self.tolerance = fn, step, every, tolerance
-        self.slope: np.ndarray | None = None
-
-    def __call__(self, z: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.every == 1:
-            return jacobian(self.fn, z, u, self.step)
-        if self.slope is None:
-            stale = np.ones(len(z), bool)
-        else:
-            stale = self.age >= self.every
-            if self.tolerance is not None:
-                stale |= (np.abs(u - self.inputs) > self.tolerance).any(-1)
-        values = None
-        if stale.any():
-            fresh, slope = jacobian(self.fn, z[stale], u[stale], self.step)
-            if self.slope is None:
-                self.slope = np.empty((len(z), *slope.shape[1:]))
-                self.inputs, self.age = u.copy(), np.zeros(len(z), int)
-            values = np.empty((len(z), fresh.shape[-1]))
-            values[stale], self.slope[stale] = fresh, slope
-            self.inputs[stale], self.age[stale] = u[stale], 0
-        if not stale.all():
-            kept = self.fn(z[~stale], u[~stale])
-            values = np.empty((len(z), kept.shape[-1])) if values is None else values
-            values[~stale] = kept
-        self.age += 1
-        return values, self.slope
-
-
 @dataclass
 class Smoothed:
     """What the smoother found, per trajectory n and step k.
@@ -107,9 +72,9 @@ class Smoothed:
     log_likelihood: np.ndarray
 
 
-def _update(mean, cov, y, u, model: StateSpaceModel, observe: _Linearisation):
+def _update(mean, cov, y, u, model: StateSpaceModel, step):
     """Measurement update at one step for the channels measured there (NaN: not measured)."""
-    predicted, h = observe(mean, u)
+    predicted, h = jacobian(model.observe, mean, u, step)
     measured = np.isfinite(y)
     residual = np.where(measured, y - predicted, 0.0)
     h = np.where(measured[..., None], h, 0.0)
@@ -136,8 +101,6 @@ def smooth(
     mean0: np.ndarray,
     cov0: np.ndarray,
     backward: bool = True,
-    refresh_every: int = 1,
-    input_tolerance: np.ndarray | None = None,
 ) -> Smoothed:
     """Filter forward, smooth backward.
 
@@ -145,15 +108,10 @@ def smooth(
     state mean0 (n, L) and cov0 (n, L, L) or (L, L).  ``backward`` False: the filter
     only (innovations and likelihood; ``mean`` and ``std`` are then the filtered ones
     at the last step, (n, 1, L)), which keeps no history and fits many rows at once.
-    ``refresh_every`` > 1 re-takes a row's Jacobians only every so many steps, or when its
-    input moves by more than ``input_tolerance`` (m,): exact for a linear model, an
-    approximation of the covariances (never of the means' model) otherwise.
     """
     n, steps, _ = y.shape
     size = mean0.shape[-1]
     step = 1e-6 * model.scale
-    transition = _Linearisation(model.transition, step, refresh_every, input_tolerance)
-    observe = _Linearisation(model.observe, step, refresh_every, input_tolerance)
     q = np.broadcast_to(model.process_std**2, (n, size))[:, :, None] * np.eye(size)
     kept = steps if backward else 1
     means = np.empty((n, kept, size))
@@ -165,12 +123,12 @@ def smooth(
     mean, cov = mean0.astype(float), np.broadcast_to(cov0, (n, size, size)).astype(float)
     with np.errstate(all="ignore"):
         for k in range(steps):
-            mean, cov, innovation[:, k], ll = _update(mean, cov, y[:, k], u[:, k], model, observe)
+            mean, cov, innovation[:, k], ll = _update(mean, cov, y[:, k], u[:, k], model, step)
             log_likelihood += ll
             slot = k if backward else 0
             means[:, slot], covs[:, slot] = mean, cov
             if k + 1 < steps:
-                mean, a = transition(mean, u[:, k])
+                mean, a = jacobian(model.transition, mean, u[:, k], step)
                 cov = a @ cov @ np.swapaxes(a, 1, 2) + q
                 if backward:
                     transitions[:, k], predicted[:, k] = a, mean

@@ -19,7 +19,7 @@ from ..sensors import channel_values
 from ..variables import STATES
 from .estimator import Smoothed, StateSpaceModel, smooth
 
-__all__ = ["INPUT_TOLERANCE", "NOMINAL_STATE", "PRIOR_STD", "REFRESH_EVERY", "cell_state_space", "estimate_states", "prior"]
+__all__ = ["NOMINAL_STATE", "PRIOR_STD", "cell_state_space", "estimate_states", "prior"]
 
 #: a nominal operating point [kg x5, degC x3] and how far a cell may be from it (1 std) before anything is measured
 NOMINAL_STATE = np.array([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0, 580.0])
@@ -75,5 +75,4 @@ def estimate_states(
     model: CellModel, y: np.ndarray, u: np.ndarray, channels: Sequence[str], noise_std: np.ndarray, dt: float
 ) -> Smoothed:
     """Smoothed states (n, K, 8) of ``model`` given measured channels y (n, K, C) (NaN: not sampled)."""
-    space = cell_state_space(model, channels, noise_std, dt)
-    return smooth(space, y, u, *prior(y, channels), refresh_every=REFRESH_EVERY, input_tolerance=INPUT_TOLERANCE)
+    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, *prior(y, channels))

@@ -28,7 +28,7 @@ from ..physics import CellModel
 from ..sensors import channel_values
 from .estimator import Smoothed, StateSpaceModel, smooth
 from .hypotheses import Hypothesis
-from .observed import INPUT_TOLERANCE, NOMINAL_STATE, PROCESS_STD, REFRESH_EVERY, prior
+from .observed import NOMINAL_STATE, PROCESS_STD, prior
 from .weak_form import estimate_noise
 
 __all__ = ["Observations", "HypothesisScore", "channel_noise", "hypothesis_scales", "score_hypotheses", "smooth_hypothesis"]
@@ -163,8 +163,7 @@ def _filter(model, hypotheses, scales, obs: Observations, window: int, walks, ba
     pairs, y, u, mean, cov = _rows(obs, hypotheses, walks, scales, null=not backward)
     walk = np.repeat([w for _, w in pairs], obs.y.shape[0]) / np.sqrt(window)
     space = _space(model, hypotheses, scales, obs, walk)
-    tolerance = np.append(INPUT_TOLERANCE, 0.5)  # the hypothesis index never moves
-    return pairs, smooth(space, y, u, mean, cov, backward, REFRESH_EVERY, tolerance)
+    return pairs, smooth(space, y, u, mean, cov, backward=backward)
 
 
 def score_hypotheses(
