@@ -26,10 +26,6 @@ NOMINAL_STATE = np.array([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0,
 PRIOR_STD = np.array([1000.0, 150.0, 400.0, 2500.0, 150.0, 10.0, 40.0, 40.0])
 #: process noise per step [state unit]: the model is trusted to this much per 10 s step
 PROCESS_STD = 1e-7 * NOMINAL_STATE
-#: the smoother re-takes a trajectory's Jacobians every this many steps, or sooner when an input
-#: moves by more than this [kg/s, A, kg/s, kg/s, m] (an impulse, a new current)
-REFRESH_EVERY = 4
-INPUT_TOLERANCE = np.array([0.5, 500.0, 0.5, 0.5, 2e-4])
 
 
 def cell_state_space(
