@@ -17,7 +17,7 @@ from costa.discover.pipeline import case_tables, run_discovery, split_held_out, 
 from costa.discover.regression import (
     GramSystem, coefficient_samples, resample_weights, selection_frequency, stepwise,
 )  # fmt: skip
-from costa.discover.search import Candidate, _naming_order
+from costa.discover.search import Candidate, naming_order
 from costa.discover.weak_form import WeakForm, equation_tests, estimate_noise
 from costa.physics import PART_ORDER, PROPERTIES, InputCorrection, PropertyCorrection, ablated_model
 from costa.simulate import simulate_set
@@ -126,8 +126,8 @@ def _candidate(model, key: str, terms: int) -> Candidate:
 
 def test_the_cause_is_named_before_its_consequences(model, rng):
     reads = model.reads(*random_operating_points(rng, 1))
-    order = lambda keys, named=(): [c.hypothesis.key for c in _naming_order(  # noqa: E731
-        [_candidate(model, k, n) for k, n in keys], named, reads)]  # fmt: skip
+    order = lambda keys, named=(): [c.hypothesis.key for c in naming_order(  # noqa: E731
+        [_candidate(model, k, n) for k, n in keys], named, reads, terms=lambda c: len(c.features))]  # fmt: skip
     # U and P_el are computed from g2: g2 is named, though its closed form has more terms
     voltage = [("part:cell_voltage", 1), ("part:electric_power", 1), ("part:bath_conductivity", 2)]
     assert order(voltage)[0] == "part:bath_conductivity"

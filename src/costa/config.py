@@ -60,6 +60,11 @@ def check_consistency(config: Mapping[str, Any]) -> None:
     unknown = sorted(set(figures["rolling_forecast_types"]) - set(config["training"]["model_types"]))
     if unknown:
         raise ConfigError(f"figures.rolling_forecast_types {unknown} are not in training.model_types")
+    unknown_sets = sorted(set(config["discovery"]["sensors"]) - set(config["discovery"]["sensor_sets"]))
+    if unknown_sets:
+        raise ConfigError(
+            f"discovery.sensors {unknown_sets} are not in discovery.sensor_sets {sorted(config['discovery']['sensor_sets'])}"
+        )
     user = config["discovery"]["user_data"]
     if user and user["name"] in config["discovery"]["cases"]:
         raise ConfigError(

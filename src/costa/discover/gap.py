@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 
 import numpy as np
@@ -83,7 +84,8 @@ def measured_channel_error(
     step k of |forecast - y| / scale (C,); NaN at a step where nothing was sampled; a non-finite
     forecast of a sampled channel counts ``nonfinite``."""
     sampled = np.isfinite(y)
-    with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a step without a sample has no error
         per_channel = np.abs(forecast - y) / scale
         per_channel = np.where(sampled, np.where(np.isfinite(per_channel), per_channel, nonfinite), np.nan)
         return np.nanmean(per_channel, axis=-1)
@@ -108,26 +110,39 @@ def measured_gap(
     scale: np.ndarray,
     settings: EvaluationSettings,
     start_steps: int,
-) -> pd.DataFrame:
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Each model's gap on held-out partial measurements y (n, K, C): rolled out from the state it
-    estimates from the first ``start_steps`` samples, scored on the measured channels per window
-    (median over trajectories of the mean error; blow-ups as coded)."""
-    rows = []
+    estimates from the first ``start_steps`` samples, scored on the measured channels per window.
+
+    Returns (per window: model, window, error (median over trajectories of the mean error),
+    mean, blowups (as coded), rollouts) and (per channel: model, window, channel, error).
+    """
+    rows, per_channel = [], []
     for name, model in models.items():
-        error = measured_channel_error(_rollout_from_estimate(model, y, u, channels, noise, dt, start_steps), y, scale)
-        rows += _window_rows(name, error, settings)
-    return pd.DataFrame(rows)
+        forecast = _rollout_from_estimate(model, y, u, channels, noise, dt, start_steps)
+        rows += _window_rows(name, measured_channel_error(forecast, y, scale), settings)
+        for c, channel in enumerate(channels):
+            error = measured_channel_error(forecast[..., c : c + 1], y[..., c : c + 1], scale[c : c + 1])
+            per_channel += [
+                {**row, "channel": channel} for row in _window_rows(name, error, settings)
+            ]
+    columns = ["model", "window", "channel", "error"]
+    return pd.DataFrame(rows), pd.DataFrame(per_channel)[columns]
 
 
 def _window_rows(name: str, error: np.ndarray, settings: EvaluationSettings) -> list[dict]:
+    """Per window: the median over trajectories of each one's mean error over its sampled steps."""
     rows = []
     for window, (start, stop) in settings.windows.items():
-        with np.errstate(all="ignore"):
-            value = np.nanmean(error[:, start:stop], axis=-1)
-            blown = np.nanmax(np.where(np.isnan(error[:, start:stop]), -np.inf, error[:, start:stop]), axis=-1)
+        part = error[:, start:stop]
+        with warnings.catch_warnings():  # a trajectory without a sample in a window has no error there
+            warnings.simplefilter("ignore", RuntimeWarning)
+            value = np.nanmean(part, axis=-1)
+            worst = np.nanmax(np.where(np.isnan(part), -np.inf, part), axis=-1)
+            median, mean = float(np.nanmedian(value)), float(np.nanmean(value))
         rows.append(
-            {"model": name, "window": window, "error": float(np.nanmedian(value)), "mean": float(np.nanmean(value)),
-             "blowups": int((blown > settings.blowup_threshold).sum()), "rollouts": int(value.size)}
+            {"model": name, "window": window, "error": median, "mean": mean,
+             "blowups": int((worst > settings.blowup_threshold).sum()), "rollouts": int(np.isfinite(value).sum())}
         )  # fmt: skip
     return rows
 

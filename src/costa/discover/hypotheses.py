@@ -30,7 +30,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..physics import (
-    BALANCES, PART_ORDER, PROPERTIES, BalanceTerm, CellModel, CellVariables, InputCorrection, PropertyCorrection,
+    BALANCES,
+    PART_ORDER,
+    PROPERTIES,
+    BalanceTerm,
+    CellModel,
+    CellVariables,
+    InputCorrection,
+    PropertyCorrection,
 )  # fmt: skip
 from ..variables import INPUTS, MEANING
 from .library import Feature, evaluate, feature_library

@@ -37,6 +37,7 @@ class PartialResult:
     noise: np.ndarray
     corrected: CellModel
     gap: pd.DataFrame
+    per_state: pd.DataFrame  # per measured channel: model, window, channel, error
     floor: dict[str, float]
     seconds: float
     windows: dict[str, tuple[int, int]]
@@ -88,8 +89,9 @@ def run_partial_discovery(
     scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)
     models = {"starting model": start} | ({"corrected model": corrected} if corrected is not start else {})
     args = (held.y, held.u, held.channels, held.noise, held.dt, scale, evaluation, start_steps)
-    gap = measured_gap(models, *args)
+    gap, per_channel = measured_gap(models, *args)
     floor = measured_noise_floor(corrected, *args, rng)
     return PartialResult(
-        rounds, obs.channels, obs.noise, corrected, gap, floor, seconds, dict(evaluation.windows), obs.dt, start_steps
+        rounds, obs.channels, obs.noise, corrected, gap, per_channel, floor, seconds, dict(evaluation.windows), obs.dt,
+        start_steps,
     )
