@@ -171,7 +171,6 @@ display(pd.concat([runs, ours.to_frame().T]).rename(columns=model_label))
 
 # %%
 claims = pd.read_csv(inputs["claims"]).fillna("")
-claims["verdict"] = claims.holds.map({True: "reproduced", False: "not reproduced"})
 show(claims[["claim", "verdict", "evidence", "likely_reason"]])
 
 # %% [markdown]
