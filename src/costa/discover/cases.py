@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics import PROPERTIES, BalanceTerm, CellModel, PropertyCorrection, ablated_model
+from ..physics import PROPERTIES, BalanceTerm, CellModel, InputCorrection, PropertyCorrection, ablated_model
 
 __all__ = ["CASES", "HiddenEffectCase", "add_noise"]
 
@@ -95,6 +95,17 @@ def _conductivity_alf3(full: CellModel) -> CellModel:
     )
 
 
+def _alumina_feeder(full: CellModel) -> CellModel:
+    """The alumina feeder delivers 92 % of its command u1 (a worn dosing chamber, say): less
+    alumina dissolves, and less AlF3 is neutralised and less cryolite formed by its impurities."""
+    return full.with_input(InputCorrection("u1", "-0.08", lambda v: -0.08), model_name="full+feeder at 92 %")
+
+
+def _tapping_shortfall(full: CellModel) -> CellModel:
+    """The tapping removes 90 % of the metal logged in u4 (the crucible's weight overstates it)."""
+    return full.with_input(InputCorrection("u4", "-0.1", lambda v: -0.1), model_name="full+tapping at 90 %")
+
+
 _CELL_VOLTAGE_CLASS = ("part:bath_conductivity", "part:cell_voltage", "part:electric_power", "term:bath_energy")
 
 CASES: dict[str, HiddenEffectCase] = {
@@ -159,6 +170,26 @@ CASES: dict[str, HiddenEffectCase] = {
             ("x6",),
             _CELL_VOLTAGE_CLASS,
             _conductivity_alf3,
+        ),
+        HiddenEffectCase(
+            "alumina_feeder",
+            "the alumina feeder delivers 92 % of its command u1",
+            "an input that is not what reached the cell",
+            "full",
+            0.01,
+            ("x2",),
+            ("input:u1",),
+            _alumina_feeder,
+        ),
+        HiddenEffectCase(
+            "tapping_shortfall",
+            "the tapping removes 90 % of the metal logged in u4",
+            "an input that is not what reached the cell",
+            "full",
+            0.01,
+            ("x5",),
+            ("input:u4",),
+            _tapping_shortfall,
         ),
         HiddenEffectCase(
             "no_effect",

@@ -9,7 +9,10 @@ import pandas as pd
 
 from ..variables import MEANING, STATES
 from .pipeline import DiscoveryResult
-from .search import Candidate, Round
+from .search import KEEP_LEVEL, Candidate, Round
+
+#: the levels of the coefficient intervals reported; the last one decides which terms are kept
+LEVELS = (0.95, KEEP_LEVEL)
 
 __all__ = ["findings", "findings_markdown"]
 
@@ -56,18 +59,23 @@ def _round(index: int, r: Round) -> dict[str, Any]:
     }
     if r.chosen is not None:
         named = _candidate(r.chosen, r.model)
+        named["kept_if"] = (
+            f"selected in at least half the bootstrap resamples and its {KEEP_LEVEL:.0%} interval "
+            f"(from the same resamples; the {LEVELS[0]:.0%} interval lies inside it) excludes zero"
+        )
+        intervals = [r.chosen.intervals(level) for level in LEVELS]
         named["coefficients"] = [
             {
                 "term": f.name,
                 "value": float(c),
-                "ci95": [float(lo), float(hi)],
-                "inclusion": r.inclusion.get(f.name, 0.0),
+                **{f"ci{100 * level:.0f}": list(iv[j]) for level, iv in zip(LEVELS, intervals, strict=True)},
+                "inclusion": r.chosen.inclusion.get(f.name, 0.0),
             }
-            for f, c, (lo, hi) in zip(r.chosen.features, r.chosen.coefficients, r.intervals, strict=True)
+            for j, (f, c) in enumerate(zip(r.chosen.features, r.chosen.coefficients, strict=True))
         ]
         chosen_terms = {f.name for f in r.chosen.features}
         named["other_terms_inclusion"] = {
-            k: v for k, v in sorted(r.inclusion.items(), key=lambda kv: -kv[1]) if k not in chosen_terms
+            k: v for k, v in sorted(r.chosen.inclusion.items(), key=lambda kv: -kv[1]) if k not in chosen_terms
         }
         named["chi2_after"] = {k: round(v, 3) for k, v in r.chosen.chi2_after.items()}
         found["named"] = named
@@ -184,14 +192,16 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
                 f"Correction [{n['unit']}]: `{n['closed_form']}`",
                 "",
             ]
-            lines.append("| term | coefficient | 95 % interval | selected in resamples |")
-            lines.append("|---|---|---|---|")
+            lines.append("| term | coefficient | 95 % interval | 99 % interval | selected in resamples |")
+            lines.append("|---|---|---|---|---|")
             lines += [
-                f"| `{c['term']}` | {c['value']:.4g} | [{c['ci95'][0]:.4g}, {c['ci95'][1]:.4g}] | {c['inclusion']:.0%} |"
+                f"| `{c['term']}` | {c['value']:.4g} | [{c['ci95'][0]:.4g}, {c['ci95'][1]:.4g}] | "
+                f"[{c['ci99'][0]:.4g}, {c['ci99'][1]:.4g}] | {c['inclusion']:.0%} |"
                 for c in n["coefficients"]
             ]
+            lines += ["", f"A term is kept if {n['kept_if']}."]
         if r["equivalent"]:
-            lines += ["", "Equally good explanations (the data cannot tell them apart):"]
+            lines += ["", "Equivalent under these measurements (the data cannot tell them apart):"]
             lines += [f"- `{c['hypothesis']}`: `{c['closed_form']}`" for c in r["equivalent"]]
         if r["alternatives"]:
             lines += ["", "Runners-up:"]

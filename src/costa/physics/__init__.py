@@ -1,7 +1,7 @@
 """The aluminum cell model as a composition of named, replaceable parts."""
 
 from .cell import CellVariables
-from .model import BALANCES, BalanceTerm, CellModel, ablated_model, model_from_config, true_model
+from .model import BALANCES, BalanceTerm, CellModel, InputCorrection, ablated_model, model_from_config, true_model
 from .parameters import (
     CONSTANTS,
     CellParameters,
@@ -23,6 +23,7 @@ __all__ = [
     "CellModel",
     "CellParameters",
     "CellVariables",
+    "InputCorrection",
     "MaterialProperties",
     "Part",
     "PhysicalProperty",

@@ -1,0 +1,222 @@
+"""Discovery rounds on partial, sparse measurements: test the channels, rank, fit, correct, repeat.
+
+One round on the current model:
+
+1. the smoother's innovations of every measured channel are tested for variance, bias
+   and whiteness (:func:`.estimator.innovation_tests`); nothing flagged -> stop;
+2. every hypothesis gets a random-walk delta(t) in the smoother and is scored by the
+   log-likelihood it gains (:func:`.partial.score_hypotheses`): first on a few
+   trajectories, then the best ``screen_keep`` on all of them;
+3. hypotheses within ``equivalence`` log-likelihood of the best explain the measured
+   channels equally well.  If they are the same physics (their effects on every state
+   are proportional: a flow into the bath's energy balance and the same change of the
+   electric power), the cause is named as in full-data discovery.  If they are not,
+   the measurements cannot tell them apart: the round says so, names none, lists them
+   and says which unmeasured channel would separate them; the best-fitting one still
+   corrects the model for forecasting;
+4. the smoothed delta(t) of the chosen hypothesis is regressed on the physical terms
+   (:mod:`.library`) evaluated at the smoothed states, window by window, with one
+   bootstrap over blocks of trajectories for selection and intervals (a term is kept
+   only if its :data:`.search.KEEP_LEVEL` interval excludes zero); the corrected model
+   goes into the next round.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics import CellModel
+from ..sensors import channel_values
+from ..variables import CHANNELS
+from .estimator import ChannelTest, Smoothed, innovation_tests
+from .hypotheses import Hypothesis, candidate_hypotheses
+from .library import Feature
+from .observed import estimate_states
+from .partial import HypothesisScore, Observations, score_hypotheses, smooth_hypothesis
+from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
+from .search import KEEP_LEVEL, DiscoverySettings, naming_order
+
+__all__ = ["PartialRound", "discover_partial", "separating_channel"]
+
+@dataclass
+class PartialRound:
+    """What one round on partial measurements found.
+
+    ``equivalent``: hypotheses that explain the measured channels as well as the chosen one;
+    ``identifiable``: False when those are different physics (nothing is named then);
+    ``separated_by``: the unmeasured channel that would tell them apart.
+    """
+
+    model: CellModel
+    tests: list[ChannelTest]
+    ranking: list[HypothesisScore]
+    chosen: HypothesisScore | None
+    equivalent: list[HypothesisScore]
+    identifiable: bool
+    separated_by: str | None
+    features: list[Feature] = field(default_factory=list)
+    coefficients: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    intervals: list[tuple[float, float]] = field(default_factory=list)
+    inclusion: dict[str, float] = field(default_factory=dict)
+    corrected: CellModel | None = None
+    tests_after: list[ChannelTest] = field(default_factory=list)
+    explained: float = 0.0
+    verdict: str = ""
+
+    @property
+    def flagged(self) -> list[str]:
+        return [t.channel for t in self.tests if t.flagged]
+
+    @property
+    def named(self) -> Hypothesis | None:
+        return self.chosen.hypothesis if self.chosen is not None and self.identifiable else None
+
+
+def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
+    """Summed excess of the channels' innovations beyond white unit noise (variance and bias)."""
+    by_name = {t.channel: t for t in tests}
+    return sum(max(by_name[c].chi2_per_dof - 1, 0.0) + by_name[c].bias ** 2 for c in channels if c in by_name)
+
+
+def _same_physics(a: Hypothesis, b: Hypothesis, model: CellModel, x: np.ndarray, u: np.ndarray) -> bool:
+    """Whether two hypotheses change every state rate in proportion at every sample (the same
+    direction in state space): no measurement of the states could tell them apart."""
+    ja, jb = a.sensitivity(model, x, u), b.sensitivity(model, x, u)
+    scale = np.abs(np.concatenate([ja, jb])).reshape(-1, 8).max(0) + 1e-300
+    ja, jb = (ja / scale).reshape(-1, 8), (jb / scale).reshape(-1, 8)
+    cosine = np.abs((ja * jb).sum(-1)) / (np.linalg.norm(ja, axis=-1) * np.linalg.norm(jb, axis=-1) + 1e-300)
+    return bool(np.nanmin(cosine) > 0.999)
+
+
+def separating_channel(histories: Sequence[np.ndarray], u: np.ndarray, model: CellModel, measured: Sequence[str]) -> str | None:
+    """The unmeasured channel on which the smoothed state histories (each (n, K, 8)) that equally
+    good explanations imply differ most, relative to the channel's spread: measuring it would
+    tell them apart."""
+    unmeasured = [c for c in CHANNELS if c not in measured]
+    if len(histories) < 2 or not unmeasured:
+        return None
+    with np.errstate(all="ignore"):
+        values = [channel_values(model, x, u, unmeasured).reshape(-1, len(unmeasured)) for x in histories]
+    spread = np.nanstd(values[0], axis=0) + 1e-12
+    difference = np.nanmax([np.nanmean(np.abs(v - values[0]), axis=0) for v in values[1:]], axis=0)
+    return unmeasured[int(np.nanargmax(difference / spread))]
+
+
+def _closed_form(
+    h: Hypothesis, model: CellModel, smoothed: Smoothed, obs: Observations, settings: DiscoverySettings, rng, rich: bool
+):
+    """Select and fit the terms of delta(t) (the smoothed delta, window means weighted by their
+    information) with one bootstrap for what is kept and what is reported."""
+    library = h.features(rich)
+    x, delta, std = smoothed.mean[..., :8], smoothed.mean[..., 8], smoothed.std[..., 8]
+    n, steps = delta.shape
+    window = settings.window
+    a = steps // window
+    cut = a * window
+    theta = np.concatenate([h.feature_values(model, library, x[i : i + 1, :cut], obs.u[i : i + 1, :cut]) for i in range(n)])
+    means = theta.reshape(n, a, window, -1).mean(2)
+    target = delta[:, :cut].reshape(n, a, window).mean(2)
+    weight = 1.0 / np.sqrt(np.maximum((std[:, :cut] ** 2).reshape(n, a, window).mean(2), 1e-300))
+    rows = np.nan_to_num(means * weight[..., None]).reshape(-1, len(library))
+    per_block = max(1, int(np.ceil(a / settings.blocks_per_trajectory)))
+    groups = (np.arange(n)[:, None] * settings.blocks_per_trajectory + np.arange(a)[None, :] // per_block).ravel()
+    system = GramSystem.from_design(rows, np.nan_to_num(target * weight).ravel(), groups)
+    weights = resample_weights(len(system.zz), settings.bootstrap, rng)
+    inclusion = selection_frequency(system, weights, max_terms=settings.max_terms, min_gain=settings.min_gain)
+    terms = [i for i in range(len(library)) if inclusion[i] >= 0.5]
+    G, b, _, _ = system.total()
+    tail = (1 - KEEP_LEVEL) / 2
+    while True:
+        centre = _solve(G, b, terms)
+        samples = coefficient_samples(system, terms, weights)
+        low, high = np.quantile(samples, [tail, 1 - tail], axis=0) if terms else (np.zeros(0), np.zeros(0))
+        covers = [j for j, (lo, hi) in enumerate(zip(low, high, strict=True)) if lo <= 0 <= hi]
+        if not covers:
+            break
+        terms.pop(max(covers, key=lambda j: min(np.mean(samples[:, j] > 0), np.mean(samples[:, j] < 0))))
+    intervals = [tuple(float(v) for v in np.quantile(samples[:, j], [tail, 1 - tail])) for j in range(len(terms))]
+    names = [f.name for f in library]
+    return (
+        [library[i] for i in terms],
+        centre,
+        intervals,
+        {name: float(p) for name, p in zip(names, inclusion, strict=True) if p > 0},
+    )
+
+
+def _tests(model: CellModel, obs: Observations, settings: DiscoverySettings) -> tuple[list[ChannelTest], Smoothed]:
+    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt)
+    return innovation_tests(smoothed.innovation, obs.channels, settings.z_threshold, settings.min_excess), smoothed
+
+
+def discover_round(
+    model: CellModel,
+    obs: Observations,
+    settings: DiscoverySettings,
+    rng: np.random.Generator,
+    rich: bool = False,
+    named: Sequence[str] = (),
+) -> PartialRound:
+    """One round on the current model (see the module docstring); ``named``: what earlier rounds named."""
+    tests, base = _tests(model, obs, settings)
+    flagged = [t.channel for t in tests if t.flagged]
+    if not flagged:
+        return PartialRound(model, tests, [], None, [], True, None, verdict="no measured channel disagrees beyond noise")
+    hypotheses = candidate_hypotheses(model)
+    few = obs.subset(slice(0, settings.screen_trajectories))
+    screened, _ = score_hypotheses(model, hypotheses, few, settings.window, settings.walks)
+    best_gain = screened[0].log_likelihood_gain if screened else 0.0
+    keep = [s.hypothesis for s in screened if s.log_likelihood_gain >= min(screened[min(settings.screen_keep, len(screened)) - 1].log_likelihood_gain, best_gain) - 1e-9]
+    ranking, _ = score_hypotheses(model, keep, obs, settings.window, settings.walks)
+    if not ranking or ranking[0].log_likelihood_gain < settings.min_gain:
+        verdict = f"channels {flagged} disagree beyond noise, but no hypothesis explains them"
+        return PartialRound(model, tests, ranking, None, [], True, None, verdict=verdict)
+    top = ranking[0].log_likelihood_gain
+    good = [s for s in ranking if s.log_likelihood_gain >= top - settings.equivalence / 2]  # BIC = -2 log L
+    x = base.mean[..., :8]
+    reads = model.reads(x[:1, :1], obs.u[:1, :1])
+    chosen = naming_order(good, named, reads)[0]
+    different = [s for s in good if not _same_physics(s.hypothesis, chosen.hypothesis, model, x[:, ::16], obs.u[:, ::16])]
+    equivalent = [s for s in good if s is not chosen]
+    smoothed = smooth_hypothesis(model, chosen, obs, settings.window)
+    features, coefficients, intervals, inclusion = _closed_form(chosen.hypothesis, model, smoothed, obs, settings, rng, rich)
+    if not features:
+        verdict = f"channels {flagged} disagree; {chosen.hypothesis.key} fits them, but no closed form of its delta is significant"
+        return PartialRound(model, tests, ranking, chosen, equivalent, not different, None, verdict=verdict)
+    corrected = chosen.hypothesis.corrected(model, features, coefficients)
+    tests_after, _ = _tests(corrected, obs, settings)
+    explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
+    separated = None
+    if different:
+        histories = [smoothed.mean[..., :8]] + [smooth_hypothesis(model, d, obs, settings.window).mean[..., :8] for d in different]
+        separated = separating_channel(histories, obs.u, model, obs.channels)
+    identifiable = not different
+    what = chosen.hypothesis.describe(model) if identifiable else (
+        f"not identifiable with these sensors: {', '.join(s.hypothesis.key for s in [chosen, *different])} "
+        f"explain the measured channels equally well" + (f"; measuring {separated} would separate them" if separated else "")
+    )
+    verdict = f"{what}; the correction removes {explained:.0%} of the flagged channels' excess"
+    return PartialRound(
+        model, tests, ranking, chosen, equivalent, identifiable, separated, features, coefficients, intervals,
+        inclusion, corrected, tests_after, explained, verdict,
+    )  # fmt: skip
+
+
+def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySettings) -> list[PartialRound]:
+    """Rounds until no channel disagrees, nothing explains it, a correction explains too little,
+    or ``max_rounds``."""
+    rng = np.random.default_rng(settings.seed)
+    rounds: list[PartialRound] = []
+    current, rich = model, False
+    for _ in range(settings.max_rounds):
+        named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
+        found = discover_round(current, obs, settings, rng, rich, named)
+        rounds.append(found)
+        if found.corrected is None or found.explained < settings.min_explained:
+            break
+        current = found.corrected
+        rich = any(t.flagged for t in found.tests_after)
+    return rounds
