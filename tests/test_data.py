@@ -183,3 +183,21 @@ def test_a_simulated_table_keeps_its_true_liquidus_and_voltage(table, tmp_path):
     measured = measured_trajectories(loaded)
     assert measured.channels == (*(f"x{i}" for i in range(1, 9)), "U_cell")
     np.testing.assert_array_equal(measured.values[..., :8], arrays(loaded)[0])
+
+
+def test_a_model_observes_the_channels_as_the_simulator_records_them(smoke_config):
+    """U_cell of a simulated table is the true model's voltage; c2, c3 are the bath fractions."""
+    from costa.datasets import simulate_split
+    from costa.observe import observe
+    from costa.physics import model_from_config
+
+    table, _ = simulate_split(smoke_config, "train", replicate=0)
+    measured = measured_trajectories(table)
+    x, u = arrays(table)
+    predicted = observe(model_from_config(smoke_config["physics"])[0], x, u, ("x6", "U_cell", "c2", "c3"))
+    np.testing.assert_array_equal(predicted[..., 0], x[..., 5])
+    np.testing.assert_allclose(predicted[..., 1], measured.channel("U_cell"), rtol=1e-12)
+    np.testing.assert_allclose(predicted[..., 2], x[..., 1] / x[..., 1:4].sum(axis=-1), rtol=1e-15)
+    np.testing.assert_allclose(predicted[..., 3], x[..., 2] / x[..., 1:4].sum(axis=-1), rtol=1e-15)
+    with pytest.raises(ValueError, match=r"unknown channel\(s\) \['g1'\]"):
+        observe(model_from_config(smoke_config["physics"])[0], x, u, ("g1",))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import importlib.util
+import json
 
 import numpy as np
 import pandas as pd
@@ -101,3 +102,22 @@ def test_the_example_data_are_what_the_documented_script_makes(tmp_path):
     module.main(tmp_path / "cell.csv")
     assert (tmp_path / "cell.csv").read_bytes() == (EXAMPLE / "cell.csv").read_bytes()
     assert load_trajectories(tmp_path / "cell.csv").shape == (6 * 400, 16)
+
+
+def test_the_worked_example_runs_from_the_readme_command(tmp_path):
+    """`snakemake --cores 2 results/own-cell/discovery/cell/findings.json --configfile examples/own-cell/config.yaml`."""
+    from test_workflow import snakemake
+
+    (tmp_path / "examples" / "own-cell").mkdir(parents=True)
+    (tmp_path / "examples" / "own-cell" / "cell.csv").write_bytes((EXAMPLE / "cell.csv").read_bytes())
+    targets = ["results/own-cell/discovery/cell/findings.json", "results/own-cell/cell_constants.csv"]
+    snakemake(tmp_path, *targets, "--configfile", str(EXAMPLE / "config.yaml"))
+    found = json.loads((tmp_path / targets[0]).read_text())
+    assert found["named"][0] == "term:bath_energy" and found["gap"]["windows"]["long"] == [200, 400]
+    assert {c["channel"]: c["status"] for c in found["channels"]}["x6"] == "every step"
+    assert {c["constant"]: c["value"] for c in found["constants"]}["k9"] == 21.5
+    markdown = (tmp_path / "results/own-cell/discovery/cell/findings.md").read_text()
+    assert "docs/glossary.md" in markdown and "x6 (bath temperature, degC): 2400 samples" in markdown
+    constants = pd.read_csv(tmp_path / targets[1]).set_index("constant")
+    assert constants.loc["k16", "value"] == 30.0 and constants.loc["k14", "value"] == 0.12 / (2 * 8.0)
+    assert not (tmp_path / "results" / "discovery").exists()  # under the example's own results folder
