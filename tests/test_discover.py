@@ -15,7 +15,11 @@ from costa.discover.findings import findings, findings_markdown
 from costa.discover.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import case_tables, run_discovery, split_held_out, starting_model
 from costa.discover.regression import (
-    GramSystem, coefficient_samples, resample_weights, selection_frequency, stepwise,
+    GramSystem,
+    coefficient_samples,
+    resample_weights,
+    selection_frequency,
+    stepwise,
 )  # fmt: skip
 from costa.discover.search import Candidate, naming_order
 from costa.discover.weak_form import WeakForm, equation_tests, estimate_noise

@@ -49,9 +49,7 @@ def _exact(model, a, b, h, y, u, mean0, cov0):
     solve = np.linalg.solve(y_cov[np.ix_(measured, measured)], (y.ravel() - y_mean)[measured])
     posterior = mean.ravel() + cross @ solve
     posterior_cov = z_cov - cross @ np.linalg.solve(y_cov[np.ix_(measured, measured)], cross.T)
-    log_density = multivariate_normal(y_mean[measured], y_cov[np.ix_(measured, measured)]).logpdf(
-        y.ravel()[measured]
-    )
+    log_density = multivariate_normal(y_mean[measured], y_cov[np.ix_(measured, measured)]).logpdf(y.ravel()[measured])
     return posterior.reshape(steps, size), np.sqrt(np.diag(posterior_cov)).reshape(steps, size), log_density
 
 

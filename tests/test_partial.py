@@ -10,13 +10,13 @@ import pytest
 
 from costa.config import load_config
 from costa.discover.findings import findings, findings_markdown
+from costa.discover.hypotheses import candidate_hypotheses
 from costa.discover.partial import Observations, channel_noise, score_hypotheses
 from costa.discover.partial_pipeline import PartialResult
 from costa.discover.partial_search import separating_channel
 from costa.discover.pipeline import case_tables, run_discovery, starting_model
-from costa.discover.hypotheses import candidate_hypotheses
+from costa.observe import observe
 from costa.physics import true_model
-from costa.sensors import channel_values
 
 REDUCED = {"trajectories": 6, "held_out_trajectories": 3, "bootstrap": 100}
 
@@ -33,7 +33,9 @@ def _reduced(default_config, steps: int = 1500) -> dict:
 def test_channel_noise_is_estimated_where_dense_and_declared_where_sparse():
     rng = np.random.default_rng(0)
     smooth = np.cumsum(rng.normal(size=(3, 2000)) * 0.01, axis=1)
-    y = np.stack([smooth + rng.normal(size=smooth.shape) * 0.2, np.where(np.arange(2000) % 360 == 0, smooth, np.nan)], -1)
+    y = np.stack(
+        [smooth + rng.normal(size=smooth.shape) * 0.2, np.where(np.arange(2000) % 360 == 0, smooth, np.nan)], -1
+    )
     noise = channel_noise(y, ("x6", "c3"), {"c3": 0.002})
     assert noise[0] == pytest.approx(0.2, rel=0.05) and noise[1] == 0.002
     with pytest.raises(ValueError, match="channel 'c3' is not sampled at every step.*declare it"):
@@ -57,7 +59,9 @@ def test_paper_liquidus_is_named_from_partial_measurements(default_config):
     for lo, hi in first.intervals:  # every kept term's reported interval excludes zero
         assert lo > 0 or hi < 0
     assert not result.rounds[-1].flagged or result.rounds[-1].explained > 0.5
-    found = findings(result, "paper_liquidus/partial", start, {"data": "test", "accepted": ["part:liquidus_temperature"]})
+    found = findings(
+        result, "paper_liquidus/partial", start, {"data": "test", "accepted": ["part:liquidus_temperature"]}
+    )
     assert found["outcome"] == "found" and found["measurements"] == "partial"
     assert found["gap"]["shrink_above_noise_floor"]["long"] > 0.8
     text = findings_markdown(found)
@@ -85,7 +89,7 @@ def test_equivalent_explanations_under_one_sensor_are_not_named():
     hidden = next(h for h in candidate_hypotheses(model) if h.key == "term:alumina_mass")
     truth = hidden.corrected(model, hidden.features()[:1], [-0.002])
     trajectories, _ = simulate_set(truth, replace(settings, steps=600), 3, 5, 0, "equivalence")
-    c2 = channel_values(truth, trajectories.x, trajectories.u, ["c2"])
+    c2 = observe(truth, trajectories.x, trajectories.u, ["c2"])
     y = c2 + rng.normal(size=c2.shape) * 2e-5
     obs = Observations(y, trajectories.u, ("c2",), np.array([2e-5]), 10.0)
     keys = ["term:alumina_mass", "term:cryolite_mass"]

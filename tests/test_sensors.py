@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from costa.discover.cases import add_noise
-from costa.discover.observed import estimate_states
 from costa.discover.estimator import innovation_tests
+from costa.discover.observed import estimate_states
+from costa.observe import observe
 from costa.physics import ablated_model, true_model
-from costa.sensors import CHANNELS, Sensor, SensorSet, channel_values, measure, sensor_sets_from_config
+from costa.sensors import CHANNELS, Sensor, SensorSet, measure, sensor_sets_from_config
 from costa.simulate import simulate_set
 from costa.variables import STATES
 
@@ -24,7 +25,9 @@ def truth(settings):
 
 def test_sampling_intervals_noise_and_absent_channels(truth):
     x, u = truth
-    sensors = SensorSet("plant", (Sensor("U_cell", 10.0, 0.005), Sensor("x6", 3600.0, 1.5), Sensor("c3", 1800.0, 0.002)))
+    sensors = SensorSet(
+        "plant", (Sensor("U_cell", 10.0, 0.005), Sensor("x6", 3600.0, 1.5), Sensor("c3", 1800.0, 0.002))
+    )
     table = measure(true_model(), x, u, 10.0, sensors, np.random.default_rng(0))
     assert set(STATES) & set(table.columns) == {"x6"} and {"u1", "u5", "time_s"} <= set(table.columns)
     x6 = table["x6"].to_numpy().reshape(4, -1)
@@ -34,7 +37,7 @@ def test_sampling_intervals_noise_and_absent_channels(truth):
     phases = {int(np.flatnonzero(np.isfinite(row))[0]) for row in x6}
     assert len(phases) > 1  # hand samples at another minute in each cell
     voltage = table["U_cell"].to_numpy().reshape(4, -1)
-    exact = channel_values(true_model(), x, u, ["U_cell"])[..., 0]
+    exact = observe(true_model(), x, u, ["U_cell"])[..., 0]
     assert np.std(voltage - exact) == pytest.approx(0.005, rel=0.05)
     assert np.isfinite(voltage).all()
 
@@ -64,7 +67,7 @@ def test_unmeasured_ledge_is_recovered_and_a_wrong_model_is_flagged(truth):
     x, u = truth
     x, u = x[:, :600], u[:, :600]
     channels = ("x5", "x6", "x8", "U_cell", "c2", "c3")
-    noise = 0.01 * channel_values(true_model(), x, u, channels).reshape(-1, 6).std(0)
+    noise = 0.01 * observe(true_model(), x, u, channels).reshape(-1, 6).std(0)
     sensors = SensorSet("partial", tuple(Sensor(c, 10.0, float(s)) for c, s in zip(channels, noise, strict=True)))
     table = measure(true_model(), x, u, 10.0, sensors, np.random.default_rng(2))
     y = table[list(channels)].to_numpy().reshape(*x.shape[:2], 6)

@@ -15,17 +15,19 @@ minute in every cell.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from .data import to_table
-from .physics import CellModel, CellVariables
+from .observe import observe
+from .physics import CellModel
 from .variables import CHANNELS, STATES
 
-__all__ = ["CHANNELS", "Sensor", "SensorSet", "channel_values", "measure", "sensor_sets_from_config"]
+__all__ = ["CHANNELS", "Sensor", "SensorSet", "measure", "sensor_sets_from_config"]
+
 
 @dataclass(frozen=True)
 class Sensor:
@@ -61,25 +63,6 @@ class SensorSet:
         return default if self.hours is None else int(round(self.hours * 3600 / dt))
 
 
-def channel_values(model: CellModel, x: np.ndarray, u: np.ndarray, channels: Sequence[str]) -> np.ndarray:
-    """The channels' values (..., C) at states x (..., 8) and inputs u (..., 5) under ``model``."""
-    v = CellVariables(x, u)
-    voltage = None
-    columns = []
-    for name in channels:
-        if name in STATES:
-            columns.append(x[..., STATES.index(name)])
-        elif name == "U_cell":
-            if voltage is None:
-                voltage = model.quantities(x, u)["cell_voltage"]
-            columns.append(voltage)
-        elif name in ("c2", "c3"):
-            columns.append(getattr(v, name))
-        else:
-            raise ValueError(f"unknown channel {name!r}; known: {list(CHANNELS)}")
-    return v.xp.stack(columns, axis=-1)
-
-
 def measure(
     model: CellModel,
     x: np.ndarray,
@@ -95,7 +78,7 @@ def measure(
     the noise std of channels whose sensor leaves it to the data set.
     """
     n, steps = x.shape[:2]
-    values = channel_values(model, x, u, sensors.channels)
+    values = observe(model, x, u, sensors.channels)
     noise = np.array([_noise(sensor, sensors.name, default_noise) for sensor in sensors.sensors])
     noisy = values + rng.normal(size=values.shape) * noise  # drawn first, as one array: the full set is today's data
     table = to_table(x, u, dt).drop(columns=list(STATES))

@@ -137,9 +137,7 @@ def smooth(
             a = transitions[:, k]
             predicted_cov = a @ covs[:, k] @ np.swapaxes(a, 1, 2) + q
             gain = np.swapaxes(np.linalg.solve(predicted_cov, a @ covs[:, k]), 1, 2)  # P A^T Ppred^-1
-            smoothed_mean[:, k] = means[:, k] + np.einsum(
-                "bij,bj->bi", gain, smoothed_mean[:, k + 1] - predicted[:, k]
-            )
+            smoothed_mean[:, k] = means[:, k] + np.einsum("bij,bj->bi", gain, smoothed_mean[:, k + 1] - predicted[:, k])
             smoothed_cov[:, k] = covs[:, k] + gain @ (smoothed_cov[:, k + 1] - predicted_cov) @ np.swapaxes(gain, 1, 2)
     std = np.sqrt(np.clip(np.diagonal(smoothed_cov, axis1=2, axis2=3), 0.0, None))
     return Smoothed(smoothed_mean, std, innovation, log_likelihood)

@@ -10,8 +10,8 @@ import pandas as pd
 
 from ..forecast import rollout_physics
 from ..metrics import EvaluationSettings, per_state_table, per_step_error, window_metrics
+from ..observe import observe
 from ..physics import CellModel
-from ..sensors import channel_values
 from .observed import estimate_states
 
 __all__ = ["gap_tables", "noise_floor"]
@@ -97,7 +97,7 @@ def _rollout_from_estimate(model: CellModel, y, u, channels, noise, dt, start_st
     first = estimate_states(model, y[:, :start_steps], u[:, :start_steps], channels, noise, dt).mean[:, :1]
     start = np.concatenate([first, np.zeros((y.shape[0], y.shape[1] - 1, 8))], axis=1)
     with np.errstate(all="ignore"):
-        return channel_values(model, rollout_physics(model, start, u, dt), u, channels)
+        return observe(model, rollout_physics(model, start, u, dt), u, channels)
 
 
 def measured_gap(

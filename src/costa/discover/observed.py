@@ -14,8 +14,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..integrate import rk4_step
+from ..observe import observe
 from ..physics import CellModel
-from ..sensors import channel_values
 from ..variables import STATES
 from .estimator import Smoothed, StateSpaceModel, smooth
 
@@ -39,7 +39,7 @@ def cell_state_space(
     channels = tuple(channels)
     return StateSpaceModel(
         transition=lambda z, u: rk4_step(model.rhs, z, u, dt),
-        observe=lambda z, u: channel_values(model, z, u, channels),
+        observe=lambda z, u: observe(model, z, u, channels),
         process_std=np.asarray(process_std, dtype=float),
         noise_std=np.asarray(noise_std, dtype=float),
         scale=NOMINAL_STATE,

@@ -24,14 +24,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..integrate import rk4_step
+from ..observe import observe
 from ..physics import CellModel
-from ..sensors import channel_values
 from .estimator import Smoothed, StateSpaceModel, smooth
 from .hypotheses import Hypothesis
 from .observed import NOMINAL_STATE, PROCESS_STD, prior
 from .weak_form import estimate_noise
 
-__all__ = ["Observations", "HypothesisScore", "channel_noise", "hypothesis_scales", "score_hypotheses", "smooth_hypothesis"]
+__all__ = [
+    "Observations",
+    "HypothesisScore",
+    "channel_noise",
+    "hypothesis_scales",
+    "score_hypotheses",
+    "smooth_hypothesis",
+]
 
 #: prior std of a hypothesis' scaled delta: a change of this many noise stds per window is not surprising
 DELTA_PRIOR = 30.0
@@ -100,11 +107,11 @@ def _space(
         x, inputs = split(z, u)
         return np.concatenate([rk4_step(composed.rhs, x, inputs, obs.dt), z[:, 8:]], axis=1)
 
-    def observe(z, u):
-        return channel_values(composed, *split(z, u), obs.channels)
+    def measured(z, u):
+        return observe(composed, *split(z, u), obs.channels)
 
     process = np.column_stack([np.tile(PROCESS_STD, (len(walk), 1)), walk])
-    return StateSpaceModel(transition, observe, process, obs.noise, np.append(NOMINAL_STATE, 1.0))
+    return StateSpaceModel(transition, measured, process, obs.noise, np.append(NOMINAL_STATE, 1.0))
 
 
 def hypothesis_scales(
@@ -123,7 +130,7 @@ def hypothesis_scales(
             shifted = _composed(model, hypotheses, which, np.full(which.shape, probe))
             x = rk4_step(shifted.rhs, x, np.tile(u[:, k], (h_count + 1, 1)), obs.dt)
         shifted = _composed(model, hypotheses, which, np.full(which.shape, probe))
-        y = channel_values(shifted, x, np.tile(u[:, -1], (h_count + 1, 1)), obs.channels).reshape(h_count + 1, n, -1)
+        y = observe(shifted, x, np.tile(u[:, -1], (h_count + 1, 1)), obs.channels).reshape(h_count + 1, n, -1)
     response = np.nan_to_num(np.abs(y[1:] - y[0]) / probe / obs.noise)  # (H, n, C) noise stds per unit delta
     strongest = np.sqrt(np.mean(response**2, axis=1)).max(-1)
     return np.divide(1.0, strongest, out=np.zeros(h_count), where=strongest > 0)
@@ -184,9 +191,7 @@ def score_hypotheses(
     for (j, walk), total in zip(pairs[1:], totals[1:], strict=True):
         if j not in best or total > best[j][0]:
             best[j] = (float(total), walk)
-    scores = [
-        HypothesisScore(hypotheses[j], float(scales[j]), walk, total - base) for j, (total, walk) in best.items()
-    ]
+    scores = [HypothesisScore(hypotheses[j], float(scales[j]), walk, total - base) for j, (total, walk) in best.items()]
     return sorted(scores, key=lambda s: -s.log_likelihood_gain), scales
 
 

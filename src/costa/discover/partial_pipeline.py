@@ -92,6 +92,15 @@ def run_partial_discovery(
     gap, per_channel = measured_gap(models, *args)
     floor = measured_noise_floor(corrected, *args, rng)
     return PartialResult(
-        rounds, obs.channels, obs.noise, corrected, gap, per_channel, floor, seconds, dict(evaluation.windows), obs.dt,
+        rounds,
+        obs.channels,
+        obs.noise,
+        corrected,
+        gap,
+        per_channel,
+        floor,
+        seconds,
+        dict(evaluation.windows),
+        obs.dt,
         start_steps,
     )

@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..observe import observe
 from ..physics import CellModel
-from ..sensors import channel_values
 from ..variables import CHANNELS
 from .estimator import ChannelTest, Smoothed, innovation_tests
 from .hypotheses import Hypothesis, candidate_hypotheses
@@ -40,6 +40,7 @@ from .regression import GramSystem, _solve, coefficient_samples, resample_weight
 from .search import KEEP_LEVEL, DiscoverySettings, naming_order
 
 __all__ = ["PartialRound", "discover_partial", "separating_channel"]
+
 
 @dataclass
 class PartialRound:
@@ -91,7 +92,9 @@ def _same_physics(a: Hypothesis, b: Hypothesis, model: CellModel, x: np.ndarray,
     return bool(np.nanmin(cosine) > 0.999)
 
 
-def separating_channel(histories: Sequence[np.ndarray], u: np.ndarray, model: CellModel, measured: Sequence[str]) -> str | None:
+def separating_channel(
+    histories: Sequence[np.ndarray], u: np.ndarray, model: CellModel, measured: Sequence[str]
+) -> str | None:
     """The unmeasured channel on which the smoothed state histories (each (n, K, 8)) that equally
     good explanations imply differ most, relative to the channel's spread: measuring it would
     tell them apart."""
@@ -99,7 +102,7 @@ def separating_channel(histories: Sequence[np.ndarray], u: np.ndarray, model: Ce
     if len(histories) < 2 or not unmeasured:
         return None
     with np.errstate(all="ignore"):
-        values = [channel_values(model, x, u, unmeasured).reshape(-1, len(unmeasured)) for x in histories]
+        values = [observe(model, x, u, unmeasured).reshape(-1, len(unmeasured)) for x in histories]
     spread = np.nanstd(values[0], axis=0) + 1e-12
     difference = np.nanmax([np.nanmean(np.abs(v - values[0]), axis=0) for v in values[1:]], axis=0)
     return unmeasured[int(np.nanargmax(difference / spread))]
@@ -116,7 +119,9 @@ def _closed_form(
     window = settings.window
     a = steps // window
     cut = a * window
-    theta = np.concatenate([h.feature_values(model, library, x[i : i + 1, :cut], obs.u[i : i + 1, :cut]) for i in range(n)])
+    theta = np.concatenate(
+        [h.feature_values(model, library, x[i : i + 1, :cut], obs.u[i : i + 1, :cut]) for i in range(n)]
+    )
     means = theta.reshape(n, a, window, -1).mean(2)
     target = delta[:, :cut].reshape(n, a, window).mean(2)
     weight = 1.0 / np.sqrt(np.maximum((std[:, :cut] ** 2).reshape(n, a, window).mean(2), 1e-300))
@@ -164,12 +169,19 @@ def discover_round(
     tests, base = _tests(model, obs, settings)
     flagged = [t.channel for t in tests if t.flagged]
     if not flagged:
-        return PartialRound(model, tests, [], None, [], True, None, verdict="no measured channel disagrees beyond noise")
+        return PartialRound(
+            model, tests, [], None, [], True, None, verdict="no measured channel disagrees beyond noise"
+        )
     hypotheses = candidate_hypotheses(model)
     few = obs.subset(slice(0, settings.screen_trajectories))
     screened, _ = score_hypotheses(model, hypotheses, few, settings.window, settings.walks)
     best_gain = screened[0].log_likelihood_gain if screened else 0.0
-    keep = [s.hypothesis for s in screened if s.log_likelihood_gain >= min(screened[min(settings.screen_keep, len(screened)) - 1].log_likelihood_gain, best_gain) - 1e-9]
+    keep = [
+        s.hypothesis
+        for s in screened
+        if s.log_likelihood_gain
+        >= min(screened[min(settings.screen_keep, len(screened)) - 1].log_likelihood_gain, best_gain) - 1e-9
+    ]
     ranking, _ = score_hypotheses(model, keep, obs, settings.window, settings.walks)
     if not ranking or ranking[0].log_likelihood_gain < settings.min_gain:
         verdict = f"channels {flagged} disagree beyond noise, but no hypothesis explains them"
@@ -179,10 +191,14 @@ def discover_round(
     x = base.mean[..., :8]
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
     chosen = naming_order(good, named, reads)[0]
-    different = [s for s in good if not _same_physics(s.hypothesis, chosen.hypothesis, model, x[:, ::16], obs.u[:, ::16])]
+    different = [
+        s for s in good if not _same_physics(s.hypothesis, chosen.hypothesis, model, x[:, ::16], obs.u[:, ::16])
+    ]
     equivalent = [s for s in good if s is not chosen]
     smoothed = smooth_hypothesis(model, chosen, obs, settings.window)
-    features, coefficients, intervals, inclusion = _closed_form(chosen.hypothesis, model, smoothed, obs, settings, rng, rich)
+    features, coefficients, intervals, inclusion = _closed_form(
+        chosen.hypothesis, model, smoothed, obs, settings, rng, rich
+    )
     if not features:
         verdict = f"channels {flagged} disagree; {chosen.hypothesis.key} fits them, but no closed form of its delta is significant"
         return PartialRound(model, tests, ranking, chosen, equivalent, not different, None, verdict=verdict)
@@ -191,12 +207,19 @@ def discover_round(
     explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
     separated = None
     if different:
-        histories = [smoothed.mean[..., :8]] + [smooth_hypothesis(model, d, obs, settings.window).mean[..., :8] for d in different]
+        histories = [smoothed.mean[..., :8]] + [
+            smooth_hypothesis(model, d, obs, settings.window).mean[..., :8] for d in different
+        ]
         separated = separating_channel(histories, obs.u, model, obs.channels)
     identifiable = not different
-    what = chosen.hypothesis.describe(model) if identifiable else (
-        f"not identifiable with these sensors: {', '.join(s.hypothesis.key for s in [chosen, *different])} "
-        f"explain the measured channels equally well" + (f"; measuring {separated} would separate them" if separated else "")
+    what = (
+        chosen.hypothesis.describe(model)
+        if identifiable
+        else (
+            f"not identifiable with these sensors: {', '.join(s.hypothesis.key for s in [chosen, *different])} "
+            f"explain the measured channels equally well"
+            + (f"; measuring {separated} would separate them" if separated else "")
+        )
     )
     verdict = f"{what}; the correction removes {explained:.0%} of the flagged channels' excess"
     return PartialRound(

@@ -11,10 +11,11 @@ import numpy as np
 import pandas as pd
 
 from .. import seeds
-from ..data import TrajectoryDataError, arrays, incomplete_states, load_trajectories, time_step, to_table
+from ..data import TrajectoryDataError, arrays, incomplete_states, load_trajectories, time_step
 from ..metrics import EvaluationSettings, state_scale, windows_from_fractions
+from ..observe import observe
 from ..physics import CellModel, model_from_config
-from ..sensors import channel_values, measure, sensor_sets_from_config
+from ..sensors import measure, sensor_sets_from_config
 from ..simulate import SimulationSettings, simulate_set
 from ..variables import INPUTS
 from .cases import CASES, HiddenEffectCase
@@ -87,7 +88,7 @@ def case_tables(
         stream = f"discovery/{case.name}/{split}"
         trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream)
         x, u = trajectories.x, trajectories.u
-        values = channel_values(true, x, u, sensor_set.channels).reshape(-1, len(sensor_set.channels))
+        values = observe(true, x, u, sensor_set.channels).reshape(-1, len(sensor_set.channels))
         default = dict(zip(sensor_set.channels, case.noise * values.std(axis=0), strict=True))
         noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
         rng = seeds.numpy_generator(config["seed"], 0, noise)

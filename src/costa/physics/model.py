@@ -25,6 +25,7 @@ import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
+from ..variables import INPUTS, MEANING
 from .cell import Array, CellVariables
 from .parameters import CellParameters, authors_code_parameters, parameters_from_config
 from .parts import (
@@ -36,7 +37,6 @@ from .parts import (
     paper_printed_parts,
 )
 from .properties import PropertyCorrection
-from ..variables import INPUTS, MEANING
 
 __all__ = [
     "BALANCES",
