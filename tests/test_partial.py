@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -63,6 +64,7 @@ def test_paper_liquidus_is_named_from_partial_measurements(default_config):
         result, "paper_liquidus/partial", start, {"data": "test", "accepted": ["part:liquidus_temperature"]}
     )
     assert found["outcome"] == "found" and found["measurements"] == "partial"
+    json.dumps(found)  # plain JSON types throughout
     assert found["gap"]["shrink_above_noise_floor"]["long"] > 0.8
     text = findings_markdown(found)
     assert "| channel | meaning | samples |" in text and "**Named**: `part:liquidus_temperature`" in text

@@ -206,7 +206,9 @@ def innovation_tests(
         white = _ljung_box_z(packed, lags)
         significant = max(z, abs(bias_z), white) > z_threshold
         material = chi2 - 1 > min_excess or bias**2 > min_excess
-        tests.append(ChannelTest(name, count, chi2, float(z), bias, float(bias_z), white, significant and material))
+        tests.append(
+            ChannelTest(name, count, chi2, float(z), bias, float(bias_z), white, bool(significant and material))
+        )
     return tests
 
 
