@@ -44,6 +44,12 @@ class GramSystem:
             G[g], b[g], zz[g], rows[g] = d.T @ d, d.T @ z, z @ z, rows_g.sum()
         return cls(G, b, zz, rows)
 
+    def totals(self, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The weighted sums for every row of ``weights`` (R, g) at once: G (R, P, P), b (R, P),
+        zz (R,), rows (R,)."""
+        G = (weights @ self.G.reshape(len(self.zz), -1)).reshape(len(weights), *self.G.shape[1:])
+        return G, weights @ self.b, weights @ self.zz, weights @ self.rows
+
     def total(self, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
         w = np.ones(len(self.zz)) if weights is None else weights
         return (
@@ -146,15 +152,12 @@ def resample_weights(groups: int, resamples: int, rng: np.random.Generator) -> n
 def selection_frequency(system: GramSystem, weights: np.ndarray, **selection) -> np.ndarray:
     """How often forward selection picks each term (P,) over the resamples ``weights`` (R, g)."""
     inclusion = np.zeros(system.G.shape[1])
-    for w in weights:
-        inclusion[list(stepwise(*system.total(w), **selection).selected)] += 1
+    for G, b, zz, rows in zip(*system.totals(weights), strict=True):
+        inclusion[list(stepwise(G, b, float(zz), float(rows), **selection).selected)] += 1
     return inclusion / len(weights)
 
 
 def coefficient_samples(system: GramSystem, chosen: Sequence[int], weights: np.ndarray) -> np.ndarray:
     """The ``chosen`` terms' coefficients refitted on each resample of ``weights`` (R, g): (R, k)."""
-    samples = np.zeros((len(weights), len(chosen)))
-    for r, w in enumerate(weights):
-        G, b, _, _ = system.total(w)
-        samples[r] = _solve(G, b, chosen)
-    return samples
+    G, b, _, _ = system.totals(weights)
+    return np.stack([_solve(G_r, b_r, chosen) for G_r, b_r in zip(G, b, strict=True)])
