@@ -22,7 +22,7 @@ from costa.physics import true_model
 REDUCED = {"trajectories": 6, "held_out_trajectories": 3, "bootstrap": 100}
 
 
-def _reduced(default_config, steps: int = 1500) -> dict:
+def _reduced(default_config, steps: int = 1000) -> dict:
     config = copy.deepcopy(default_config)
     config["simulation"]["steps"] = steps
     config["evaluation"]["windows"] = {"short": [0, 30], "medium": [30, steps // 2], "long": [steps // 2, steps]}
@@ -57,7 +57,7 @@ def test_paper_liquidus_is_named_from_partial_measurements(default_config):
     assert first.named is not None and first.named.key == "part:liquidus_temperature"
     names = [f.name for f in first.features]
     assert {"(c2 - 0.03)", "(c3 - 0.11)"} <= {n.replace("own*", "") for n in names}
-    for lo, hi in first.intervals:  # every kept term's reported interval excludes zero
+    for lo, hi in first.intervals(0.99):  # every kept term's reported interval excludes zero
         assert lo > 0 or hi < 0
     assert not result.rounds[-1].flagged or result.rounds[-1].explained > 0.5
     found = findings(

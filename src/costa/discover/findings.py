@@ -121,8 +121,10 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
             "terms": [f.name for f in r.features], "excess_removed": round(r.explained, 4),
             "log_likelihood_gain": round(r.chosen.log_likelihood_gain, 1),
             "kept_if": f"selected in at least half the bootstrap resamples and its {KEEP_LEVEL:.0%} interval "
-                       "(from the same resamples) excludes zero",
-            "coefficients": _coefficients(r.features, r.coefficients, {KEEP_LEVEL: r.intervals}, r.inclusion),
+                       f"(from the same resamples; the {LEVELS[0]:.0%} interval lies inside it) excludes zero",
+            "coefficients": _coefficients(
+                r.features, r.coefficients, {level: r.intervals(level) for level in LEVELS}, r.inclusion
+            ),
             "channels_after": {t.channel: round(t.chi2_per_dof, 3) for t in r.tests_after},
         }  # fmt: skip
         found["correction"] = closed

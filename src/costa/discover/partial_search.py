@@ -37,7 +37,7 @@ from .library import Feature
 from .observed import estimate_states
 from .partial import HypothesisScore, Observations, score_hypotheses, smooth_hypothesis
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
-from .search import KEEP_LEVEL, DiscoverySettings, naming_order
+from .search import KEEP_LEVEL, DiscoverySettings, independent_columns, naming_order, percentile_intervals, weakest_term
 
 __all__ = ["PartialRound", "discover_partial", "separating_channel"]
 
@@ -60,7 +60,7 @@ class PartialRound:
     separated_by: str | None
     features: list[Feature] = field(default_factory=list)
     coefficients: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    intervals: list[tuple[float, float]] = field(default_factory=list)
+    samples: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # bootstrap coefficients (resamples, terms)
     inclusion: dict[str, float] = field(default_factory=dict)
     corrected: CellModel | None = None
     tests_after: list[ChannelTest] = field(default_factory=list)
@@ -70,6 +70,10 @@ class PartialRound:
     @property
     def flagged(self) -> list[str]:
         return [t.channel for t in self.tests if t.flagged]
+
+    def intervals(self, level: float) -> list[tuple[float, float]]:
+        """Each kept term's bootstrap interval at ``level``."""
+        return percentile_intervals(self.samples, level)
 
     @property
     def named(self) -> Hypothesis | None:
@@ -126,6 +130,8 @@ def _closed_form(
     target = delta[:, :cut].reshape(n, a, window).mean(2)
     weight = 1.0 / np.sqrt(np.maximum((std[:, :cut] ** 2).reshape(n, a, window).mean(2), 1e-300))
     rows = np.nan_to_num(means * weight[..., None]).reshape(-1, len(library))
+    independent = independent_columns(rows)  # a constant part's own value duplicates the constant term
+    library, rows = [library[i] for i in independent], rows[:, independent]
     per_block = max(1, int(np.ceil(a / settings.blocks_per_trajectory)))
     groups = (np.arange(n)[:, None] * settings.blocks_per_trajectory + np.arange(a)[None, :] // per_block).ravel()
     system = GramSystem.from_design(rows, np.nan_to_num(target * weight).ravel(), groups)
@@ -133,23 +139,10 @@ def _closed_form(
     inclusion = selection_frequency(system, weights, max_terms=settings.max_terms, min_gain=settings.min_gain)
     terms = [i for i in range(len(library)) if inclusion[i] >= 0.5]
     G, b, _, _ = system.total()
-    tail = (1 - KEEP_LEVEL) / 2
-    while True:
-        centre = _solve(G, b, terms)
-        samples = coefficient_samples(system, terms, weights)
-        low, high = np.quantile(samples, [tail, 1 - tail], axis=0) if terms else (np.zeros(0), np.zeros(0))
-        covers = [j for j, (lo, hi) in enumerate(zip(low, high, strict=True)) if lo <= 0 <= hi]
-        if not covers:
-            break
-        terms.pop(max(covers, key=lambda j: min(np.mean(samples[:, j] > 0), np.mean(samples[:, j] < 0))))
-    intervals = [tuple(float(v) for v in np.quantile(samples[:, j], [tail, 1 - tail])) for j in range(len(terms))]
-    names = [f.name for f in library]
-    return (
-        [library[i] for i in terms],
-        centre,
-        intervals,
-        {name: float(p) for name, p in zip(names, inclusion, strict=True) if p > 0},
-    )
+    while (weakest := weakest_term(samples := coefficient_samples(system, terms, weights), KEEP_LEVEL)) is not None:
+        terms.pop(weakest)
+    inclusion_by_name = {f.name: float(p) for f, p in zip(library, inclusion, strict=True) if p > 0}
+    return [library[i] for i in terms], _solve(G, b, terms), samples, inclusion_by_name
 
 
 def _tests(model: CellModel, obs: Observations, settings: DiscoverySettings) -> tuple[list[ChannelTest], Smoothed]:
@@ -196,7 +189,7 @@ def discover_round(
     ]
     equivalent = [s for s in good if s is not chosen]
     smoothed = smooth_hypothesis(model, chosen, obs, settings.window)
-    features, coefficients, intervals, inclusion = _closed_form(
+    features, coefficients, samples, inclusion = _closed_form(
         chosen.hypothesis, model, smoothed, obs, settings, rng, rich
     )
     if not features:
@@ -223,7 +216,7 @@ def discover_round(
     )
     verdict = f"{what}; the correction removes {explained:.0%} of the flagged channels' excess"
     return PartialRound(
-        model, tests, ranking, chosen, equivalent, identifiable, separated, features, coefficients, intervals,
+        model, tests, ranking, chosen, equivalent, identifiable, separated, features, coefficients, samples,
         inclusion, corrected, tests_after, explained, verdict,
     )  # fmt: skip
 

@@ -40,7 +40,10 @@ from .library import Feature
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
 from .weak_form import EquationTest, WeakForm, equation_tests, estimate_noise
 
-__all__ = ["KEEP_LEVEL", "Candidate", "DiscoverySettings", "Round", "discover", "naming_order"]
+__all__ = [
+    "KEEP_LEVEL", "Candidate", "DiscoverySettings", "Round", "discover", "independent_columns", "naming_order",
+    "percentile_intervals", "weakest_term",
+]  # fmt: skip
 
 #: a term is kept only if its bootstrap interval at this level excludes zero (the findings
 #: report it and the 95 % interval, which lies inside it)
@@ -99,8 +102,7 @@ class Candidate:
 
     def intervals(self, level: float) -> list[tuple[float, float]]:
         """Each term's bootstrap interval at ``level`` (a percentile interval of ``samples``)."""
-        low, high = np.quantile(self.samples, [(1 - level) / 2, (1 + level) / 2], axis=0)
-        return [(float(lo), float(hi)) for lo, hi in zip(low, high, strict=True)]
+        return percentile_intervals(self.samples, level)
 
 
 @dataclass
@@ -247,12 +249,12 @@ def _explain(problem: _Problem, h: Hypothesis, model: CellModel, measured, featu
     projected = np.einsum("nas,nasp->nap", sensitivity, design) / np.where(information > 0, information, 1)[..., None]
     weight = np.sqrt(information)[..., None]
     rows = (projected * weight).reshape(-1, len(features))
-    kept = _independent(rows)
+    kept = independent_columns(rows)
     system = GramSystem.from_design(rows[:, kept], (delta * weight[..., 0]).ravel(), problem.groups[::8])
     return system, kept
 
 
-def _independent(columns: np.ndarray, tolerance: float = 1e-8) -> list[int]:
+def independent_columns(columns: np.ndarray, tolerance: float = 1e-8) -> list[int]:
     """Indices of columns that are not zero and not (nearly) a multiple of an earlier one."""
     norms = np.linalg.norm(columns, axis=0)
     kept: list[int] = []
@@ -299,7 +301,7 @@ def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: Discovery
     while True:
         centre = _solve(G, b, terms)
         spread = coefficient_samples(system, terms, weights) - centre  # resampled around the full-data fit
-        weakest = _weakest(spread + (centre if refined is None else refined), KEEP_LEVEL)
+        weakest = weakest_term(spread + (centre if refined is None else refined), KEEP_LEVEL)
         if weakest is not None:
             terms.pop(weakest)
             refined = None
@@ -316,7 +318,13 @@ def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: Discovery
     return candidate
 
 
-def _weakest(samples: np.ndarray, level: float) -> int | None:
+def percentile_intervals(samples: np.ndarray, level: float) -> list[tuple[float, float]]:
+    """Each column's (resamples x terms) percentile interval at ``level``."""
+    low, high = np.quantile(samples, [(1 - level) / 2, (1 + level) / 2], axis=0)
+    return [(float(lo), float(hi)) for lo, hi in zip(low, high, strict=True)]
+
+
+def weakest_term(samples: np.ndarray, level: float) -> int | None:
     """The term (column of ``samples``, resamples x terms) whose ``level`` interval covers zero
     with the most resamples on the other side of zero from the median; None if no interval does."""
     if not samples.shape[1]:
