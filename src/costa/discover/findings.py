@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from ..variables import MEANING, STATES
@@ -89,18 +90,38 @@ def _coefficients(features, coefficients, intervals_by_level, inclusion) -> list
     ]
 
 
+def _partial_candidate(c, model) -> dict[str, Any]:
+    h = c.hypothesis
+    return {
+        "hypothesis": h.key,
+        "kind": h.kind,
+        "target": h.target,
+        "unit": h.unit,
+        "description": h.describe(model),
+        "closed_form": c.formula,
+        "terms": [f.name for f in c.features],
+        "excess_removed": round(c.explained, 4),
+        "bic_gain": round(c.bic_gain, 1) if np.isfinite(c.bic_gain) else None,
+        "free_delta_log_likelihood_gain": round(c.score.log_likelihood_gain, 1),
+    }
+
+
 def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
     """A round on partial measurements: channel tests instead of equation tests."""
-    score = lambda s: {"hypothesis": s.hypothesis.key, "kind": s.hypothesis.kind,  # noqa: E731
-                       "log_likelihood_gain": round(s.log_likelihood_gain, 1)}  # fmt: skip
     found: dict[str, Any] = {
         "round": index,
         "model": r.model.name,
         "channels_tested": [
             {
-                "channel": t.channel, "meaning": MEANING[t.channel], "samples": t.samples,
-                "chi2_per_dof": round(t.chi2_per_dof, 3), "z": round(t.z, 1), "bias": round(t.bias, 3),
-                "bias_z": round(t.bias_z, 1), "whiteness_z": round(t.whiteness_z, 1), "flagged": t.flagged,
+                "channel": t.channel,
+                "meaning": MEANING[t.channel],
+                "samples": t.samples,
+                "chi2_per_dof": round(t.chi2_per_dof, 3),
+                "z": round(t.z, 1),
+                "bias": round(t.bias, 3),
+                "bias_z": round(t.bias_z, 1),
+                "whiteness_z": round(t.whiteness_z, 1),
+                "flagged": t.flagged,
             }
             for t in r.tests
         ],  # fmt: skip
@@ -108,28 +129,27 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
         "verdict": r.verdict,
         "identifiable": r.identifiable,
         "separated_by": r.separated_by,
-        "best_fitting": score(r.chosen) if r.chosen is not None else None,
         "named": None,
-        "equivalent": [score(s) for s in r.equivalent],
-        "alternatives": [score(s) for s in r.ranking if s is not r.chosen and s not in r.equivalent][:5],
+        "correction": None,
+        "equivalent": [_partial_candidate(c, r.model) for c in r.equivalent],
+        "alternatives": [
+            _partial_candidate(c, r.model) for c in r.ranking if c is not r.chosen and c not in r.equivalent
+        ][:5],
     }
-    if r.chosen is not None and r.features:
-        h = r.chosen.hypothesis
-        closed = {
-            "hypothesis": h.key, "kind": h.kind, "target": h.target, "unit": h.unit,
-            "description": h.describe(r.model), "closed_form": h.formula(r.features, r.coefficients),
-            "terms": [f.name for f in r.features], "excess_removed": round(r.explained, 4),
-            "log_likelihood_gain": round(r.chosen.log_likelihood_gain, 1),
-            "kept_if": f"selected in at least half the bootstrap resamples and its {KEEP_LEVEL:.0%} interval "
-                       f"(from the same resamples; the {LEVELS[0]:.0%} interval lies inside it) excludes zero",
-            "coefficients": _coefficients(
-                r.features, r.coefficients, {level: r.intervals(level) for level in LEVELS}, r.inclusion
-            ),
-            "channels_after": {t.channel: round(t.chi2_per_dof, 3) for t in r.tests_after},
-        }  # fmt: skip
-        found["correction"] = closed
+    if r.chosen is not None:
+        correction = _partial_candidate(r.chosen, r.model)
+        correction["kept_if"] = (
+            f"selected in at least half the bootstrap resamples and its {KEEP_LEVEL:.0%} interval "
+            f"(from the same resamples; the {LEVELS[0]:.0%} interval lies inside it) excludes zero"
+        )
+        intervals = {level: r.chosen.intervals(level) for level in LEVELS}
+        correction["coefficients"] = _coefficients(
+            r.chosen.features, r.chosen.coefficients, intervals, r.chosen.inclusion
+        )
+        correction["channels_after"] = {t.channel: round(t.chi2_per_dof, 3) for t in r.chosen.tests_after}
+        found["correction"] = correction
         if r.identifiable:
-            found["named"] = closed
+            found["named"] = correction
     return found
 
 
@@ -154,7 +174,7 @@ def findings(
     partial = isinstance(result, PartialResult)
     rounds = [(_partial_round if partial else _round)(i + 1, r) for i, r in enumerate(result.rounds)]
     named = [r["named"]["hypothesis"] for r in rounds if r["named"]]
-    unidentified = [r for r in rounds if partial and not r["identifiable"] and r["best_fitting"]]
+    unidentified = [r for r in rounds if partial and not r["identifiable"] and r["correction"]]
     first = rounds[0]
     if named:
         outcome = "found"
@@ -311,8 +331,7 @@ def _round_lines(r: Mapping[str, Any]) -> list[str]:
     lines += ["", f"**Verdict**: {r['verdict']}.", ""]
     for state, items in r["where"].items():
         lines.append(
-            f"- {state}'s residual follows "
-            + ", ".join(f"{i['variable']} (rho {i['spearman']:+.2f})" for i in items)
+            f"- {state}'s residual follows " + ", ".join(f"{i['variable']} (rho {i['spearman']:+.2f})" for i in items)
         )
     if r["named"]:
         n = r["named"]
@@ -339,7 +358,11 @@ def _round_lines(r: Mapping[str, Any]) -> list[str]:
 
 def _coefficient_lines(n: Mapping[str, Any]) -> list[str]:
     levels = [key for key in n["coefficients"][0] if key.startswith("ci")] if n["coefficients"] else []
-    lines = ["| term | coefficient | " + " | ".join(f"{level[2:]} % interval" for level in levels) + " | selected in resamples |"]
+    lines = [
+        "| term | coefficient | "
+        + " | ".join(f"{level[2:]} % interval" for level in levels)
+        + " | selected in resamples |"
+    ]
     lines.append("|---|---|" + "---|" * len(levels) + "---|")
     lines += [
         f"| `{c['term']}` | {c['value']:.4g} | "
@@ -353,7 +376,12 @@ def _coefficient_lines(n: Mapping[str, Any]) -> list[str]:
 def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
     """A round on partial measurements: the channels' innovation tests, the verdict, the correction
     (named only when the measurements can tell it from the other explanations)."""
-    lines = [f"## Round {r['round']}", "", "Innovations of the smoother on each measured channel (white, zero-mean and of unit variance under a right model).", ""]
+    lines = [
+        f"## Round {r['round']}",
+        "",
+        "Innovations of the smoother on each measured channel (white, zero-mean and of unit variance under a right model).",
+        "",
+    ]
     lines.append("| channel | meaning | samples | chi2/dof | z | bias | bias z | whiteness z | disagrees |")
     lines.append("|---|---|---|---|---|---|---|---|---|")
     lines += [
@@ -364,16 +392,23 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
     lines += ["", f"**Verdict**: {r['verdict']}.", ""]
     correction = r.get("correction")
     if correction:
-        title = "Named" if r["named"] else "Best-fitting explanation (not named: not identifiable with these measurements)"
+        title = (
+            "Named" if r["named"] else "Best-fitting explanation (not named: not identifiable with these measurements)"
+        )
         lines += [f"**{title}**: `{correction['hypothesis']}`: {correction['description']}", "",
                   f"Correction [{correction['unit']}]: `{correction['closed_form']}`", ""]  # fmt: skip
         lines += _coefficient_lines(correction)
     if r["equivalent"]:
         lines += ["", "Equivalent under these measurements (they fit the measured channels as well):"]
-        lines += [f"- `{e['hypothesis']}` (log-likelihood gain {e['log_likelihood_gain']:.0f})" for e in r["equivalent"]]
+        lines += [
+            f"- `{e['hypothesis']}`: `{e['closed_form']}` (BIC gain {e['bic_gain']:.0f})" for e in r["equivalent"]
+        ]
         if r["separated_by"]:
             lines.append(f"- measuring `{r['separated_by']}` would separate them")
     if r["alternatives"]:
         lines += ["", "Runners-up:"]
-        lines += [f"- `{a['hypothesis']}` (log-likelihood gain {a['log_likelihood_gain']:.0f})" for a in r["alternatives"]]
+        lines += [
+            f"- `{a['hypothesis']}` removes {a['excess_removed']:.0%} of the excess (BIC gain {a['bic_gain'] or 0:.0f})"
+            for a in r["alternatives"]
+        ]
     return lines + [""]

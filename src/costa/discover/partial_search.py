@@ -4,21 +4,22 @@ One round on the current model:
 
 1. the smoother's innovations of every measured channel are tested for variance, bias
    and whiteness (:func:`.estimator.innovation_tests`); nothing flagged -> stop;
-2. every hypothesis gets a random-walk delta(t) in the smoother and is scored by the
-   log-likelihood it gains (:func:`.partial.score_hypotheses`): first on a few
-   trajectories, then the best ``screen_keep`` on all of them;
-3. hypotheses within ``equivalence`` log-likelihood of the best explain the measured
-   channels equally well.  If they are the same physics (their effects on every state
-   are proportional: a flow into the bath's energy balance and the same change of the
-   electric power), the cause is named as in full-data discovery.  If they are not,
-   the measurements cannot tell them apart: the round says so, names none, lists them
-   and says which unmeasured channel would separate them; the best-fitting one still
-   corrects the model for forecasting;
-4. the smoothed delta(t) of the chosen hypothesis is regressed on the physical terms
-   (:mod:`.library`) evaluated at the smoothed states, window by window, with one
+2. every hypothesis gets a random-walk delta(t) in the smoother and is scored, on a few
+   trajectories, by the log-likelihood it gains (:func:`.partial.score_hypotheses`);
+   the best ``partial_candidates`` go on;
+3. each of those is smoothed on all trajectories, its delta(t) regressed on the physical
+   terms (:mod:`.library`) evaluated at the smoothed states, window by window, with one
    bootstrap over blocks of trajectories for selection and intervals (a term is kept
-   only if its :data:`.search.KEEP_LEVEL` interval excludes zero); the corrected model
-   goes into the next round.
+   only if its :data:`.search.KEEP_LEVEL` interval excludes zero), and the corrected
+   model scored by the BIC gain of its own likelihood of the measured channels, as the
+   full-data route scores a correction by its exact residual;
+4. corrections within ``equivalence`` BIC of the best explain the measured channels
+   equally well.  If they are the same physics (their effects on every state rate are
+   proportional: a flow into the bath's energy balance and the same change of the
+   electric power), the cause is named as on full data.  If not, the measurements
+   cannot tell them apart: the round says so, names none, lists them and says which
+   unmeasured channel would separate them; the best one still corrects the model for
+   forecasting, and goes into the next round.
 """
 
 from __future__ import annotations
@@ -43,41 +44,65 @@ __all__ = ["PartialRound", "discover_partial", "separating_channel"]
 
 
 @dataclass
-class PartialRound:
-    """What one round on partial measurements found.
+class PartialCandidate:
+    """A hypothesis with its smoothed delta, the closed form fitted to it and the corrected model's
+    score: ``bic_gain`` over the uncorrected model on the measured channels, ``explained`` the share
+    of the flagged channels' excess it removes."""
 
-    ``equivalent``: hypotheses that explain the measured channels as well as the chosen one;
-    ``identifiable``: False when those are different physics (nothing is named then);
-    ``separated_by``: the unmeasured channel that would tell them apart.
-    """
-
-    model: CellModel
-    tests: list[ChannelTest]
-    ranking: list[HypothesisScore]
-    chosen: HypothesisScore | None
-    equivalent: list[HypothesisScore]
-    identifiable: bool
-    separated_by: str | None
-    features: list[Feature] = field(default_factory=list)
-    coefficients: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    samples: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # bootstrap coefficients (resamples, terms)
-    inclusion: dict[str, float] = field(default_factory=dict)
+    score: HypothesisScore
+    smoothed: Smoothed
+    features: list[Feature]
+    coefficients: np.ndarray
+    samples: np.ndarray  # bootstrap coefficients (resamples, terms)
+    inclusion: dict[str, float]
     corrected: CellModel | None = None
     tests_after: list[ChannelTest] = field(default_factory=list)
+    bic_gain: float = -np.inf
     explained: float = 0.0
-    verdict: str = ""
 
     @property
-    def flagged(self) -> list[str]:
-        return [t.channel for t in self.tests if t.flagged]
+    def hypothesis(self) -> Hypothesis:
+        return self.score.hypothesis
+
+    @property
+    def formula(self) -> str:
+        return Hypothesis.formula(self.features, self.coefficients)
 
     def intervals(self, level: float) -> list[tuple[float, float]]:
         """Each kept term's bootstrap interval at ``level``."""
         return percentile_intervals(self.samples, level)
 
+
+@dataclass
+class PartialRound:
+    """What one round on partial measurements found.
+
+    ``ranking``: the fitted candidates, best BIC gain first; ``equivalent``: those as good as
+    the chosen one; ``identifiable`` False when they are different physics (nothing is named
+    then, though ``chosen`` corrects the model); ``separated_by``: the unmeasured channel that
+    would tell them apart.
+    """
+
+    model: CellModel
+    tests: list[ChannelTest]
+    ranking: list[PartialCandidate]
+    chosen: PartialCandidate | None
+    equivalent: list[PartialCandidate]
+    identifiable: bool
+    separated_by: str | None
+    verdict: str
+
+    @property
+    def flagged(self) -> list[str]:
+        return [t.channel for t in self.tests if t.flagged]
+
     @property
     def named(self) -> Hypothesis | None:
         return self.chosen.hypothesis if self.chosen is not None and self.identifiable else None
+
+    @property
+    def corrected(self) -> CellModel | None:
+        return self.chosen.corrected if self.chosen is not None else None
 
 
 def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
@@ -150,6 +175,37 @@ def _tests(model: CellModel, obs: Observations, settings: DiscoverySettings) -> 
     return innovation_tests(smoothed.innovation, obs.channels, settings.z_threshold, settings.min_excess), smoothed
 
 
+def _fit(
+    score: HypothesisScore,
+    model: CellModel,
+    obs: Observations,
+    settings: DiscoverySettings,
+    seed,
+    rich: bool,
+    tests: list[ChannelTest],
+    base_likelihood: float,
+) -> PartialCandidate:
+    """Smooth one hypothesis on every trajectory, fit its closed form, score the corrected model.
+    Every candidate of a round resamples with the same ``seed``."""
+    smoothed = smooth_hypothesis(model, score, obs, settings.window)
+    features, coefficients, samples, inclusion = _closed_form(
+        score.hypothesis, model, smoothed, obs, settings, np.random.default_rng(seed), rich
+    )
+    candidate = PartialCandidate(score, smoothed, features, coefficients, samples, inclusion)
+    if not features:
+        return candidate
+    corrected = score.hypothesis.corrected(model, features, coefficients)
+    tests_after, after = _tests(corrected, obs, settings)
+    likelihood = float(after.log_likelihood.sum())
+    samples_measured = int(np.isfinite(obs.y).sum())
+    flagged = [t.channel for t in tests if t.flagged]
+    candidate.corrected, candidate.tests_after = corrected, tests_after
+    if np.isfinite(likelihood):
+        candidate.bic_gain = 2 * (likelihood - base_likelihood) - len(features) * np.log(samples_measured)
+    candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
+    return candidate
+
+
 def discover_round(
     model: CellModel,
     obs: Observations,
@@ -162,63 +218,47 @@ def discover_round(
     tests, base = _tests(model, obs, settings)
     flagged = [t.channel for t in tests if t.flagged]
     if not flagged:
-        return PartialRound(
-            model, tests, [], None, [], True, None, verdict="no measured channel disagrees beyond noise"
-        )
-    hypotheses = candidate_hypotheses(model)
+        return PartialRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
     few = obs.subset(slice(0, settings.screen_trajectories))
-    screened, _ = score_hypotheses(model, hypotheses, few, settings.window, settings.walks)
-    best_gain = screened[0].log_likelihood_gain if screened else 0.0
-    keep = [
-        s.hypothesis
+    screened, _ = score_hypotheses(model, candidate_hypotheses(model), few, settings.window, settings.walks)
+    cut = screened[min(settings.partial_candidates, len(screened)) - 1].log_likelihood_gain if screened else np.inf
+    seed = rng.integers(2**63)
+    base_likelihood = float(base.log_likelihood.sum())
+    ranking = [
+        _fit(s, model, obs, settings, seed, rich, tests, base_likelihood)
         for s in screened
-        if s.log_likelihood_gain
-        >= min(screened[min(settings.screen_keep, len(screened)) - 1].log_likelihood_gain, best_gain) - 1e-9
+        if s.log_likelihood_gain >= cut and s.log_likelihood_gain > 0
     ]
-    ranking, _ = score_hypotheses(model, keep, obs, settings.window, settings.walks)
-    if not ranking or ranking[0].log_likelihood_gain < settings.min_gain:
-        verdict = f"channels {flagged} disagree beyond noise, but no hypothesis explains them"
-        return PartialRound(model, tests, ranking, None, [], True, None, verdict=verdict)
-    top = ranking[0].log_likelihood_gain
-    good = [s for s in ranking if s.log_likelihood_gain >= top - settings.equivalence / 2]  # BIC = -2 log L
+    ranking.sort(key=lambda c: -c.bic_gain)
+    good = [c for c in ranking if c.features and c.bic_gain >= ranking[0].bic_gain - settings.equivalence]
+    if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
+        best = (
+            f"the best, {ranking[0].hypothesis.key}, removes {ranking[0].explained:.0%} of the excess"
+            if ranking
+            else ""
+        )
+        verdict = f"channels {flagged} disagree beyond noise, but no candidate explains them" + (
+            f": {best}" if best else ""
+        )
+        return PartialRound(model, tests, ranking, None, [], True, None, verdict)
     x = base.mean[..., :8]
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
-    chosen = naming_order(good, named, reads)[0]
+    chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
     different = [
-        s for s in good if not _same_physics(s.hypothesis, chosen.hypothesis, model, x[:, ::16], obs.u[:, ::16])
+        c for c in equivalent if not _same_physics(c.hypothesis, chosen.hypothesis, model, x[:, ::16], obs.u[:, ::16])
     ]
-    equivalent = [s for s in good if s is not chosen]
-    smoothed = smooth_hypothesis(model, chosen, obs, settings.window)
-    features, coefficients, samples, inclusion = _closed_form(
-        chosen.hypothesis, model, smoothed, obs, settings, rng, rich
-    )
-    if not features:
-        verdict = f"channels {flagged} disagree; {chosen.hypothesis.key} fits them, but no closed form of its delta is significant"
-        return PartialRound(model, tests, ranking, chosen, equivalent, not different, None, verdict=verdict)
-    corrected = chosen.hypothesis.corrected(model, features, coefficients)
-    tests_after, _ = _tests(corrected, obs, settings)
-    explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
     separated = None
     if different:
-        histories = [smoothed.mean[..., :8]] + [
-            smooth_hypothesis(model, d, obs, settings.window).mean[..., :8] for d in different
-        ]
+        histories = [c.smoothed.mean[..., :8] for c in [chosen, *different]]
         separated = separating_channel(histories, obs.u, model, obs.channels)
-    identifiable = not different
-    what = (
-        chosen.hypothesis.describe(model)
-        if identifiable
-        else (
-            f"not identifiable with these sensors: {', '.join(s.hypothesis.key for s in [chosen, *different])} "
-            f"explain the measured channels equally well"
-            + (f"; measuring {separated} would separate them" if separated else "")
-        )
-    )
-    verdict = f"{what}; the correction removes {explained:.0%} of the flagged channels' excess"
-    return PartialRound(
-        model, tests, ranking, chosen, equivalent, identifiable, separated, features, coefficients, samples,
-        inclusion, corrected, tests_after, explained, verdict,
-    )  # fmt: skip
+    if different:
+        keys = ", ".join(c.hypothesis.key for c in [chosen, *different])
+        what = f"not identifiable with these measurements: {keys} explain the measured channels equally well"
+        what += f"; measuring {separated} would separate them" if separated else ""
+    else:
+        what = chosen.hypothesis.describe(model)
+    verdict = f"{what}; the correction removes {chosen.explained:.0%} of the flagged channels' excess"
+    return PartialRound(model, tests, ranking, chosen, equivalent, not different, separated, verdict)
 
 
 def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySettings) -> list[PartialRound]:
@@ -231,8 +271,8 @@ def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySet
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
         found = discover_round(current, obs, settings, rng, rich, named)
         rounds.append(found)
-        if found.corrected is None or found.explained < settings.min_explained:
+        if found.chosen is None:
             break
         current = found.corrected
-        rich = any(t.flagged for t in found.tests_after)
+        rich = any(t.flagged for t in found.chosen.tests_after)
     return rounds

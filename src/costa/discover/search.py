@@ -78,6 +78,7 @@ class DiscoverySettings:
     equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
     new_mechanism_margin: float = 0.05  # a new effect must gain this share more BIC than refining a named one
     screen_trajectories: int = 8  # partial measurements: trajectories on which every hypothesis is scored first
+    partial_candidates: int = 4  # ... the best so many get a closed form, fitted and scored on all trajectories
     walks: tuple[float, ...] = (0.3, 3.0)  # ... random-walk steps of a hypothesis' delta, in noise stds per window
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
 
