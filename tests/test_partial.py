@@ -18,6 +18,7 @@ from costa.discover.partial_search import separating_channel
 from costa.discover.pipeline import case_tables, run_discovery, starting_model
 from costa.observe import observe
 from costa.physics import true_model
+from costa.plots import plot_discovery
 
 REDUCED = {"trajectories": 6, "held_out_trajectories": 3, "bootstrap": 100}
 
@@ -68,6 +69,8 @@ def test_paper_liquidus_is_named_from_partial_measurements(default_config):
     assert found["gap"]["shrink_above_noise_floor"]["long"] > 0.8
     text = findings_markdown(found)
     assert "| channel | meaning | samples |" in text and "**Named**: `part:liquidus_temperature`" in text
+    figure = plot_discovery(found, result.gap)
+    assert [t.get_text() for t in figure.axes[0].get_xticklabels()] == list(result.channels)
 
 
 def test_no_effect_under_partial_measurements_names_nothing(default_config):
