@@ -14,14 +14,27 @@ configfile: f"{workflow.basedir}/config/config.yaml"
 
 
 sys.path.insert(0, f"{workflow.basedir}/src")
-from costa.config import check_config, check_consistency  # noqa: E402
-
-# One message naming the offending key, then defaults, then checks across keys.
-check_config(config)
-validate(
-    config, f"{workflow.basedir}/workflow/schemas/config.schema.yaml", set_default=True
+from costa.config import (  # noqa: E402
+    ConfigError,
+    check_config,
+    check_consistency,
+    check_user_data,
 )
-check_consistency(config)
+from costa.data import TrajectoryDataError  # noqa: E402
+
+# One message naming the offending key, then defaults, then checks across keys, then
+# your data file: a bad input stops the run in one line before anything is scheduled.
+try:
+    check_config(config)
+    validate(
+        config,
+        f"{workflow.basedir}/workflow/schemas/config.schema.yaml",
+        set_default=True,
+    )
+    check_consistency(config)
+    check_user_data(config)
+except (ConfigError, TrajectoryDataError) as error:
+    sys.exit(str(error))
 
 
 include: "workflow/rules/common.smk"

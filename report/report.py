@@ -45,7 +45,17 @@ def figure(key: str, width: int = 900) -> None:
 
 
 def show(table: pd.DataFrame) -> None:
-    display(table.style.hide(axis="index").format(precision=4))
+    """A table without its index: whole-number columns (counts) as integers, a missing value as "—"."""
+    counts = [c for c in table.columns if pd.api.types.is_float_dtype(table[c]) and (table[c].dropna() % 1 == 0).all()]
+    table = table.astype({c: "Int64" for c in counts if table[c].notna().any()})
+    display(table.style.hide(axis="index").format(precision=4, na_rep="—"))
+
+
+def with_interval(value: float, low: float, high: float, spec: str = ".3g") -> str:
+    """'value [low, high]', or "—" where there is no value (no rollout left to take a median of)."""
+    if pd.isna(value):
+        return "—"
+    return f"{value:{spec}} [{low:{spec}}, {high:{spec}}]"
 
 
 sim, training, evaluation = config["simulation"], config["training"], config["evaluation"]
@@ -142,7 +152,7 @@ figure("rolling_forecast", width=950)
 # Blow-ups are out of 1000 rollouts for a network type (10 instances x 100 trajectories)
 # and out of 100 for the PBM; the median AN-RFMSE is over the rollouts that did not blow
 # up. Intervals are 95 % bootstrap intervals over instances (over trajectories for the
-# PBM). The paper's values are read off its figures (SPEC section 7), so they are
+# PBM). The paper's values are read off its figures (`docs/model.md` §7), so they are
 # approximate; medians it does not show are blank.
 
 # %%
@@ -151,8 +161,8 @@ coded = summary[summary.definition == "coded"]
 table = coded.merge(paper_blowups(), on=["model_type", "window"], how="left").merge(
     paper_median_error(), on=["model_type", "window"], how="left"
 )
-table["blow-ups"] = table.apply(lambda r: f"{r.blowups} [{r.blowups_low:.0f}, {r.blowups_high:.0f}]", axis=1)
-table["median AN-RFMSE"] = table.apply(lambda r: f"{r['median']:.3g} [{r.median_low:.3g}, {r.median_high:.3g}]", axis=1)
+table["blow-ups"] = table.apply(lambda r: with_interval(r.blowups, r.blowups_low, r.blowups_high, ".0f"), axis=1)
+table["median AN-RFMSE"] = table.apply(lambda r: with_interval(r["median"], r.median_low, r.median_high), axis=1)
 table["model"] = table.model_type.map(model_label)
 show(
     table[["model", "window", "blow-ups", "paper_blowups", "median AN-RFMSE", "paper_median"]].rename(
@@ -161,13 +171,13 @@ show(
 )
 
 # %% [markdown]
-# Three further faithful runs of the authors' settings with other seeds (SPEC section 7)
+# Three further faithful runs of the authors' settings with other seeds (`docs/model.md` §7)
 # show how much one run varies: long-window blow-ups per run.
 
 # %%
 runs = reference_runs().pivot(index="run", columns="model_type", values="blowups")
 ours = coded[coded.window == "long"].set_index("model_type")["blowups"].rename("this run")
-display(pd.concat([runs, ours.to_frame().T]).rename(columns=model_label))
+show(pd.concat([runs, ours.to_frame().T]).rename(columns=model_label).rename_axis("run").reset_index())
 
 # %% [markdown]
 # ### The paper's claims
@@ -181,7 +191,7 @@ show(claims[["claim", "verdict", "evidence", "likely_reason"]])
 #
 # The paper prints a squared error averaged from the start to each horizon and a
 # blow-up test on the final state; the figures above use the coded definition
-# (SPEC section 6). The same table with the printed definition:
+# (`docs/model.md` §6). The same table with the printed definition:
 
 # %%
 printed = summary[summary.definition == "printed"].copy()
@@ -226,10 +236,10 @@ if inputs.get("replicate_aggregate"):
     )
     spread["model"] = spread.model_type.map(model_label)
     spread["blow-ups mean [95 %]"] = spread.apply(
-        lambda r: f"{r.blowups_mean:.1f} [{r.blowups_low:.1f}, {r.blowups_high:.1f}]", axis=1
+        lambda r: with_interval(r.blowups_mean, r.blowups_low, r.blowups_high, ".1f"), axis=1
     )
     spread["median AN-RFMSE mean [95 %]"] = spread.apply(
-        lambda r: f"{r.median_mean:.3g} [{r.median_low:.3g}, {r.median_high:.3g}]", axis=1
+        lambda r: with_interval(r.median_mean, r.median_low, r.median_high), axis=1
     )
     show(
         spread[["model", "window", "per replicate", "blow-ups mean [95 %]", "blowups_sd", "paper_blowups",
@@ -240,7 +250,7 @@ if inputs.get("replicate_aggregate"):
     verdicts = pd.read_csv(inputs["replicate_claims"][0]).fillna("")
     display(Markdown("\n".join(f"- {v.claim}: **{v.verdict}** ({v.conclusion})." for v in verdicts.itertuples())))
     verdicts["effect median [95 %]"] = verdicts.apply(
-        lambda r: f"{r.effect_median:.3g} [{r.effect_low:.3g}, {r.effect_high:.3g}]", axis=1
+        lambda r: with_interval(r.effect_median, r.effect_low, r.effect_high), axis=1
     )
     show(verdicts[["claim", "verdict", "held", "effects", "effect median [95 %]", "likely_reason"]])
 else:

@@ -2,32 +2,16 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
 import nbformat
 import pandas as pd
 import pytest
-from conftest import REPOSITORY
+from conftest import REPOSITORY, snakemake
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake", "--snakefile", str(REPOSITORY / "Snakefile")]
-
-
-def snakemake(workdir, *args, check=True):
-    result = subprocess.run(
-        [*SNAKEMAKE, "--directory", str(workdir), "--cores", "2", *args],
-        capture_output=True, text=True, cwd=workdir,
-    )  # fmt: skip
-    if check and result.returncode != 0:
-        raise AssertionError(f"snakemake {args} failed:\n{result.stdout[-3000:]}\n{result.stderr[-6000:]}")
-    return result
-
-
-@pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory):
-    workdir = tmp_path_factory.mktemp("smoke")
-    snakemake(workdir, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"))
-    return workdir
 
 
 # the smoke config writes under results/smoke/ (config/smoke.yaml: output)
@@ -60,6 +44,8 @@ def test_report_is_rendered_without_errors(smoke_run):
     html = (smoke_run / "results/smoke/report/report.html").read_text()
     assert "not assessed at this size" in html and "Provenance" in html and html.count("<img") >= 5
     assert "Robustness across replicates" in html and "from a single run" in html
+    assert not re.findall(r'(?:src|href)="(?:https?:)?//', html)  # nothing from the network
+    assert not re.search(r">[^<]*\bnan\b", html) and ">—<" in html  # a missing value is a dash
 
 
 def test_two_replicates_are_aggregated_plotted_and_reported(tmp_path):

@@ -1,4 +1,4 @@
-"""The paper's claims (SPEC section 7) as checks on a summary table of one run.
+"""The paper's claims (docs/model.md §7) as checks on a summary table of one run.
 
 Each check returns whether the claim holds, the effect size it rests on, and a
 sentence of evidence.  Thresholds for the paper's words are stated here once:
@@ -138,8 +138,8 @@ CLAIMS = (
 )
 
 
-#: What the evidence says about a claim that does not hold in a run (SPEC section 7's
-#: three reference runs of the authors' settings with other seeds).
+#: What the evidence says about a claim that does not hold in a run (the three reference
+#: runs of the authors' settings with other seeds, docs/model.md §7).
 LIKELY_REASON = {
     "costa_more_accurate": "CoSTA's accuracy advantage is large in every reference run; a failure points to a bug.",
     "networks_beat_pbm": "Every reference run has the networks well below the PBM early on; a failure points to a bug.",

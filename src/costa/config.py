@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +15,7 @@ REPOSITORY = Path(__file__).resolve().parents[2]
 SCHEMA = REPOSITORY / "workflow" / "schemas" / "config.schema.yaml"
 DEFAULT_CONFIG = REPOSITORY / "config" / "config.yaml"
 
-__all__ = ["ConfigError", "check_config", "check_consistency", "load_config"]
+__all__ = ["ConfigError", "check_config", "check_consistency", "check_user_data", "load_config"]
 
 
 class ConfigError(ValueError):
@@ -40,6 +41,7 @@ def check_consistency(config: Mapping[str, Any]) -> None:
         EvaluationSettings.from_config(evaluation).check(steps)
     except ValueError as error:
         raise ConfigError(f"{error} (simulation.steps)") from None
+    _check_disjoint_windows(evaluation["windows"])
     for key in ("windows", "horizons"):
         missing = sorted({"short", "medium", "long"} - set(evaluation[key]))
         if missing:
@@ -92,6 +94,35 @@ def _check_gap_windows(user: Mapping[str, Any] | None) -> None:
             raise ConfigError(
                 f"discovery.user_data.gap_windows.{name} = [{low}, {high}): the start must be below the stop"
             )
+
+
+def _check_disjoint_windows(windows: Mapping[str, Any]) -> None:
+    """The coded metric's windows must not overlap (each step counts in one window)."""
+    ordered = sorted(windows.items(), key=lambda item: item[1][0])
+    for (before, (_, stop)), (after, (start, end)) in pairwise(ordered):
+        if start < stop:
+            raise ConfigError(
+                f"evaluation.windows.{after} = [{start}, {end}) overlaps evaluation.windows.{before}, "
+                f"which ends at {stop}; the windows must be disjoint"
+            )
+
+
+def check_user_data(config: Mapping[str, Any]) -> None:
+    """Read and check the measurements ``discovery.user_data.path`` names (if any) as discovery will.
+
+    Raises :class:`costa.data.TrajectoryDataError` naming the key, the file and the column
+    and row of the first problem, so that a bad file stops a run before anything is scheduled.
+    """
+    user = config["discovery"]["user_data"]
+    if not user:
+        return
+    from .data import TrajectoryDataError
+    from .discover.pipeline import split_held_out
+
+    try:
+        split_held_out(user["path"], user["held_out_fraction"])
+    except TrajectoryDataError as error:
+        raise TrajectoryDataError(f"invalid data at 'discovery.user_data.path': {error}") from None
 
 
 def load_config(*paths: str | Path, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:

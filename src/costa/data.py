@@ -316,14 +316,37 @@ def _check_positive_masses(path: Path, table: pd.DataFrame) -> None:
 def _read(path: Path) -> pd.DataFrame:
     if not path.is_file():
         raise TrajectoryDataError(f"{path}: no such file")
+    if path.stat().st_size == 0:
+        raise TrajectoryDataError(f"{path}: the file is empty")
+    readers = {".csv": pd.read_csv, ".parquet": pd.read_parquet, ".pq": pd.read_parquet}
+    reader = readers.get(path.suffix.lower())
+    if reader is None:
+        raise TrajectoryDataError(f"{path}: unknown format {path.suffix!r}; use .parquet or .csv")
     try:
-        if path.suffix.lower() == ".csv":
-            return pd.read_csv(path)
-        if path.suffix.lower() in (".parquet", ".pq"):
-            return pd.read_parquet(path)
+        table = reader(path)
     except Exception as error:  # a parser error of any kind is the user's file
-        raise TrajectoryDataError(f"{path}: cannot be read as {path.suffix[1:]}: {error}") from error
-    raise TrajectoryDataError(f"{path}: unknown format {path.suffix!r}; use .parquet or .csv")
+        message = " ".join(str(error).split())  # one line
+        raise TrajectoryDataError(f"{path}: cannot be read as {path.suffix[1:]}: {message}") from error
+    _check_layout(path, table)
+    return table
+
+
+#: Separators a spreadsheet may have written instead of commas, by name.
+_OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
+
+
+def _check_layout(path: Path, table: pd.DataFrame) -> None:
+    """A table read as one column (another separator than commas), or with a header and no rows."""
+    if table.shape[1] == 1:
+        header = str(table.columns[0])
+        for separator, name in _OTHER_SEPARATORS.items():
+            if separator in header:
+                raise TrajectoryDataError(
+                    f"{path}: the header {header[:60]!r} is one column separated by {name}; "
+                    "a CSV trajectory table is separated by commas"
+                )
+    if table.empty:
+        raise TrajectoryDataError(f"{path}: the table has columns but no rows")
 
 
 def _check_time(path: Path, table: pd.DataFrame) -> None:

@@ -4,7 +4,7 @@ Member e of an :class:`MLPEnsemble` is the network
 ``z -> W_L^T relu(... relu(W_1^T z + b_1) ...) + b_L`` with ``weights[l][e]`` of
 shape (fan_in, fan_out).  Every layer of every member runs as one batched matrix
 product, which is 20-40x faster on a CPU than stepping ``nn.Module`` s one by one
-(PERF_NOTES; ``benchmarks/train_speed.py`` measures it here).  Training uses a
+(``benchmarks/train_speed.py`` measures it).  Training uses a
 hand-written backward pass, :func:`ensemble_gradients` (1.5x faster than autograd
 at these sizes, and 1.6x faster again when compiled), and :class:`StackedAdam`,
 torch's fused Adam fed those gradients directly; tests check both against autograd

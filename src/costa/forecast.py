@@ -1,7 +1,7 @@
 """Rolling forecasts: a model predicts a whole test trajectory from its start, given the true inputs.
 
 All trajectories (and all instances of a network type) advance together, one step
-at a time (SPEC section 6):
+at a time (docs/model.md §6):
 
 - networks (DDM, CoSTA): forward Euler, x_{k+1} = x_k + dt f(x_k, u_k), starting
   from the last of the first ``copied`` true samples (the authors copy 3);

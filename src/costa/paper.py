@@ -1,4 +1,4 @@
-"""What the paper reports (read off its figures, SPEC section 7) and earlier faithful runs."""
+"""What the paper reports (read off its figures; docs/model.md §7) and earlier faithful runs."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ _MEDIAN = {
     "long": (0.3, 0.3, 0.05, 0.05, 0.2),
 }
 
-# Three faithful runs of the authors' settings with other seeds (SPEC section 7): long-window
+# Three faithful runs of the authors' settings with other seeds (docs/model.md §7): long-window
 # blow-ups, and the short-window median AN-RFMSE ranges.
 _RUNS_LONG = ((322, 124, 43, 54, 5), (229, 184, 111, 51, 0), (359, 310, 67, 20, 3))
 _RUNS_SHORT_MEDIAN = {"ddm": (0.012, 0.031), "costa": (0.005, 0.007), "pbm": (0.20, 0.21)}

@@ -13,7 +13,10 @@ import nbformat
 import papermill
 from nbconvert import HTMLExporter
 
-__all__ = ["git_commit", "render_notebook"]
+__all__ = ["OFFLINE_TEMPLATE", "git_commit", "render_notebook"]
+
+#: The HTML template: nbconvert's default, less the scripts it would fetch from CDNs.
+OFFLINE_TEMPLATE = Path(__file__).with_name("offline.html.j2")
 
 
 def git_commit(directory: str | Path) -> str:
@@ -33,7 +36,8 @@ def render_notebook(
 ) -> None:
     """Execute the jupytext ``source`` with ``parameters``; write the executed notebook and its HTML.
 
-    The HTML leaves out the code cells (the executed notebook keeps them).
+    The HTML leaves out the code cells (the executed notebook keeps them) and loads
+    nothing from the network (:data:`OFFLINE_TEMPLATE`; images are embedded).
     """
     notebook = jupytext.read(source)
     with tempfile.TemporaryDirectory() as tmp:
@@ -43,6 +47,8 @@ def render_notebook(
             str(unexecuted), str(executed), parameters=dict(parameters), kernel_name="python3",
             cwd=str(cwd), progress_bar=False,
         )  # fmt: skip
-    exporter = HTMLExporter(exclude_input=True, exclude_input_prompt=True, exclude_output_prompt=True)
+    exporter = HTMLExporter(
+        template_file=str(OFFLINE_TEMPLATE), exclude_input=True, exclude_input_prompt=True, exclude_output_prompt=True
+    )  # fmt: skip
     body, _ = exporter.from_notebook_node(nbformat.read(executed, as_version=4))
     Path(html).write_text(body)

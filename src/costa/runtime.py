@@ -16,7 +16,7 @@ def configure(snakemake: Any) -> logging.Logger:
     """Send logging and uncaught errors to the job's log; use only the job's threads.
 
     torch ignores Snakemake's ``threads:``; two jobs with all cores each
-    oversubscribe a small machine by 6-14x (PERF_NOTES), so the thread count is
+    oversubscribe a small machine by 6-14x (measured on 2 cores), so the thread count is
     set explicitly.
     """
     threads = max(1, int(snakemake.threads))

@@ -1,4 +1,4 @@
-"""Training the DDM and CoSTA networks (SPEC section 5).
+"""Training the DDM and CoSTA networks (docs/model.md §5).
 
 Inputs are the 13 values (x_k, u_k), standardised with the training set's mean and
 unbiased std (over all samples, as ``alu_dataset.py``).  With the finite-difference

@@ -13,7 +13,7 @@ ENV = "../../envs/costa.yaml"
 os.environ.update(
     PYTHONPATH=os.pathsep.join(filter(None, [str(SRC), os.environ.get("PYTHONPATH")]))
 )
-# One BLAS/OpenMP thread per job unless the job sets more (PERF_NOTES, oversubscription).
+# One BLAS/OpenMP thread per job unless the job sets more (torch oversubscribes a small machine otherwise).
 for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 

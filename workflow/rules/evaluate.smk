@@ -1,5 +1,5 @@
 rule rollout:
-    """Roll one model type (or the PBM) out on every test trajectory and score it (SPEC section 6)."""
+    """Roll one model type (or the PBM) out on every test trajectory and score it (docs/model.md §6)."""
     input:
         test=out("{rep}data/test.parquet"),
         train=out("{rep}data/train.parquet"),

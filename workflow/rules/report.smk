@@ -27,7 +27,7 @@ rule report:
         replicate_aggregate=across_replicates(out("replicates/aggregate.csv")),
         replicate_claims=across_replicates(out("replicates/claims.csv")),
         replicate_blowups=across_replicates(out("replicates/blowups.png")),
-        code=package_files("report.py", "paper.py", "plots"),
+        code=package_files("report.py", "offline.html.j2", "paper.py", "plots"),
     output:
         html=f"{REPORT}/report.html",
         notebook=out("report/report.ipynb"),

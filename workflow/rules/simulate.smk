@@ -1,5 +1,5 @@
 rule simulate:
-    """Simulate one data set with the true model (SPEC section 4)."""
+    """Simulate one data set with the true model (docs/model.md §4)."""
     input:
         code=SIMULATION_CODE,
     output:

@@ -1,5 +1,5 @@
 rule train:
-    """Train the instances of one model type as one stacked ensemble (SPEC section 5)."""
+    """Train the instances of one model type as one stacked ensemble (docs/model.md §5)."""
     input:
         train=out("{rep}data/train.parquet"),
         code=TRAINING_CODE,

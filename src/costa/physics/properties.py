@@ -1,6 +1,6 @@
 """Physical properties shared by several constants, and corrections that change them.
 
-The model's constants are derived from a few physical properties (SPEC section 2;
+The model's constants are derived from a few physical properties (docs/model.md §2;
 :func:`costa.physics.parameters.authors_code_parameters`): the ledge conductivity
 k_sl enters k1, k8 and k13 in proportion and k11, k15 inversely, the current
 efficiency enters both the alumina consumption k3 and the metal production k6, and

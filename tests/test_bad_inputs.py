@@ -1,0 +1,167 @@
+"""A catalogue of bad inputs: each stops the README's smoke command in one line and changes no result.
+
+Every entry is a config (merged over config/smoke.yaml) or a measurement file for
+discovery (named by ``discovery.user_data``) that must end the run with a non-zero
+exit, one line naming the key, or the file, column and row, and every file under
+``results/`` byte for byte as it was. The checks run when the workflow starts
+(the Snakefile), so nothing is scheduled.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import SMOKE_COMMAND, file_hashes, run_command
+
+# (name, config merged over the smoke config, what the one line must say)
+CONFIGS = [
+    ("unknown top-level key", "simulaton: {steps: 10}",
+     "invalid config at '(top level)': Additional properties are not allowed ('simulaton' was unexpected)"),
+    ("unknown nested key", "training: {epoch: 3}",
+     "invalid config at 'training': Additional properties are not allowed ('epoch' was unexpected)"),
+    ("text for an integer", "simulation: {steps: many}", "invalid config at 'simulation.steps': 'many' is not of type 'integer'"),
+    ("text for a boolean", "training: {compile: maybe}", "invalid config at 'training.compile': 'maybe' is not of type 'boolean'"),
+    ("float for an integer", "training: {instances: 2.5}", "invalid config at 'training.instances': 2.5 is not of type 'integer'"),
+    ("negative time step", "simulation: {dt_s: -1}", "invalid config at 'simulation.dt_s': -1 is less than or equal to the minimum of 0"),
+    ("no trajectories", "simulation: {train_trajectories: 0}",
+     "invalid config at 'simulation.train_trajectories': 0 is less than the minimum of 1"),
+    ("confidence above 1", "evaluation: {bootstrap: {confidence: 1.5}}",
+     "invalid config at 'evaluation.bootstrap.confidence': 1.5 is greater than or equal to the maximum of 1"),
+    ("negative seed", "seed: -1", "invalid config at 'seed': -1 is less than the minimum of 0"),
+    ("unknown equations variant", "physics: {equations: latest}", "invalid config at 'physics.equations': 'latest' is not one of"),
+    ("unknown constant", "physics: {overrides: {k99: 1.0}}", "invalid config at 'physics.overrides'"),
+    ("range of three values", "simulation: {initial_conditions: {x1: [1, 2, 3]}}",
+     "invalid config at 'simulation.initial_conditions.x1'"),
+    ("empty hidden layers", "training: {hidden_layers: []}", "invalid config at 'training.hidden_layers'"),
+    ("model type named pbm", "training: {model_types: {pbm: {target: ddm, l1_lambda: 0.0}}}",
+     "invalid config at 'training.model_types'"),
+    ("unknown training target", "training: {model_types: {ddm_dense: {target: gan, l1_lambda: 0.0}}}",
+     "invalid config at 'training.model_types.ddm_dense.target': 'gan' is not one of ['ddm', 'costa']"),
+    ("window beyond the trajectories", "evaluation: {windows: {long: [200, 900]}}",
+     "evaluation.windows.long = [200, 900) does not fit trajectories of 400 steps (simulation.steps)"),
+    ("reversed window", "evaluation: {windows: {medium: [200, 20]}}",
+     "evaluation.windows.medium = [200, 20) does not fit trajectories of 400 steps (simulation.steps)"),
+    ("overlapping windows", "evaluation: {windows: {medium: [10, 200]}}",
+     "evaluation.windows.medium = [10, 200) overlaps evaluation.windows.short, which ends at 20; the windows must be disjoint"),
+    ("horizon beyond the trajectories", "evaluation: {horizons: {long: 401}}",
+     "evaluation.horizons.long = 401 does not fit trajectories of 400 steps (simulation.steps)"),
+    ("saved trajectory that does not exist", "evaluation: {saved_trajectories: [0, 7]}",
+     "evaluation.saved_trajectories [0, 7] must be below simulation.test_trajectories = 4"),
+    ("figure trajectory not saved", "figures: {rolling_forecast_trajectory: 3}",
+     "figures.rolling_forecast_trajectory = 3 must be one of evaluation.saved_trajectories [0, 1]"),
+    ("figure of a model type that does not exist", "figures: {rolling_forecast_types: [ddm_huge]}",
+     "figures.rolling_forecast_types ['ddm_huge'] are not in training.model_types"),
+    ("discovery case that does not exist", "discovery: {cases: [paper_liquidus, no_such_effect]}",
+     "invalid config at 'discovery.cases.1': 'no_such_effect' is not one of"),
+    ("copied samples beyond the trajectories", "evaluation: {copied_samples: {networks: 400}}",
+     "evaluation.copied_samples {'networks': 400, 'physics': 1} must be below simulation.steps = 400"),
+    ("user data without a path", "discovery: {user_data: {name: cell}}", "invalid config at 'discovery.user_data'"),
+    ("user data named like a shipped case", "discovery: {user_data: {path: cell.csv, name: paper_liquidus}}",
+     "discovery.user_data.name 'paper_liquidus' is also a shipped case in discovery.cases; choose another name"),
+    ("held-out fraction of 1", "discovery: {user_data: {path: cell.csv, held_out_fraction: 1.0}}",
+     "invalid config at 'discovery.user_data.held_out_fraction': 1.0 is greater than or equal to the maximum of 1"),
+]  # fmt: skip
+
+def _drop_u3(t):
+    return t.drop(columns="u3")
+
+
+def _set(column, row, value):
+    def edit(t):
+        t = t.astype({column: object}) if isinstance(value, str) else t.copy()
+        t.loc[row, column] = value
+        return t
+
+    return edit
+
+
+def _time_backwards(t):
+    t = t.copy()
+    t.loc[5, "time_s"] = t.loc[3, "time_s"]
+    return t
+
+
+def _duplicated_step(t):
+    return pd.concat([t.iloc[:7], t.iloc[6:]], ignore_index=True)
+
+
+def _uneven_step(t):
+    t = t.copy()
+    t.loc[t.trajectory == 0, "time_s"] *= np.where(t.loc[t.trajectory == 0, "step"] < 200, 1.0, 1.5)
+    return t
+
+
+def _interleaved(t):
+    return pd.concat([t[t.trajectory == 0].iloc[:100], t[t.trajectory == 1], t[t.trajectory == 0].iloc[100:],
+                      t[t.trajectory == 2]], ignore_index=True)  # fmt: skip
+
+
+def _one_trajectory(t):
+    return t[t.trajectory == 0]
+
+
+# (name, file name, how the good table is spoilt (or the file's text), what the one line must say)
+DATA = [
+    ("missing input column", "cell.csv", _drop_u3, "cell.csv: missing column(s) ['u3']"),
+    ("NaN in an input", "cell.csv", _set("u2", 17, np.nan), "cell.csv: column 'u2' has a non-finite value at row 17: nan"),
+    ("inf in an input", "cell.csv", _set("u1", 250, np.inf), "cell.csv: column 'u1' has a non-finite value at row 250: inf"),
+    ("NaN time", "cell.csv", _set("time_s", 9, np.nan), "cell.csv: column 'time_s' has a non-finite value at row 9: nan"),
+    ("text in a numeric column", "cell.csv", _set("u5", 33, "high"), "cell.csv: column 'u5' is not numeric (row 33: 'high')"),
+    ("time going backwards", "cell.csv", _time_backwards,
+     "cell.csv: column 'time_s' must increase within a trajectory; row 5 goes from 40.0 to 30.0"),
+    ("duplicated step", "cell.csv", _duplicated_step,
+     "cell.csv: column 'time_s' must increase within a trajectory; row 7 goes from 60.0 to 60.0"),
+    ("uneven time step", "cell.csv", _uneven_step, "cell.csv: column 'time_s' must have a uniform step"),
+    ("trajectory rows not contiguous", "cell.csv", _interleaved,
+     "cell.csv: rows of a trajectory must be contiguous (trajectory 0 reappears at row 500)"),
+    ("negative mass", "cell.csv", _set("x2", 120, -5.0),
+     "cell.csv: column 'x2' (Al2O3 mass) must be positive, row 120 has -5.0"),
+    ("a single trajectory", "cell.csv", _one_trajectory,
+     "cell.csv: discovery needs at least 2 trajectories (one is held out to measure the gap), found 1"),
+    ("empty file", "cell.csv", "", "cell.csv: the file is empty"),
+    ("header and no rows", "cell.csv", "trajectory,step,time_s,x1,x2,x3,x4,x5,x6,x7,x8,u1,u2,u3,u4,u5\n",
+     "cell.csv: the table has columns but no rows"),
+    ("semicolons for commas", "cell.csv", "semicolons", "cell.csv: the header 'trajectory;step;time_s;"),
+    ("file that does not exist", "absent.csv", None, "absent.csv: no such file"),
+    ("not a Parquet file", "cell.parquet", "trajectory,step\n0,0\n", "cell.parquet: cannot be read as parquet"),
+    ("unknown format", "cell.xlsx", "PK\x03\x04", "cell.xlsx: unknown format '.xlsx'; use .parquet or .csv"),
+]  # fmt: skip
+
+CASES = [pytest.param(text, message, None, None, id=name) for name, text, message in CONFIGS]
+CASES += [pytest.param(None, message, file, spoil, id=name) for name, file, spoil, message in DATA]
+
+
+@pytest.fixture(scope="module")
+def good_table(smoke_run) -> pd.DataFrame:
+    """The smoke run's training set as a measurement table (3 trajectories x 400 steps)."""
+    table = pd.read_parquet(smoke_run / "results/smoke/data/train.parquet")
+    return table.drop(columns=["g1", "U_cell"])
+
+
+def _write(folder, file, spoil, good_table) -> None:
+    path = folder / file
+    if spoil is None:
+        return
+    if callable(spoil):
+        spoil(good_table).to_csv(path, index=False)
+    elif spoil == "semicolons":
+        good_table.to_csv(path, index=False, sep=";")
+    else:
+        path.write_text(spoil)
+
+
+@pytest.mark.parametrize(("config", "message", "file", "spoil"), CASES)
+def test_bad_input_stops_in_one_line_and_keeps_results(smoke_run, good_table, tmp_path, config, message, file, spoil):
+    if file is not None:
+        _write(tmp_path, file, spoil, good_table)
+        config = f"discovery: {{user_data: {{path: {tmp_path / file}, name: cell}}}}"
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(config + "\n")
+    before = file_hashes(smoke_run / "results")
+    result = run_command(smoke_run, f"{SMOKE_COMMAND} {bad}")
+    assert result.returncode != 0
+    lines = [line for line in (result.stdout + result.stderr).splitlines() if line.strip()]
+    naming = [line for line in lines if message in line]
+    assert len(naming) == 1 and naming[0] == lines[-1] and "Traceback" not in result.stderr, lines
+    assert file_hashes(smoke_run / "results") == before

@@ -1,0 +1,41 @@
+"""The smoke workflow through a real SLURM (one node on localhost) gives the local run's bytes.
+
+Runs where Debian's ``slurm-wlm`` and ``munge`` are installed and the tests run as root
+(CI installs them), else skips with the reason. The README's cluster command runs as
+written, plus three flags that only this throw-away cluster needs.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from conftest import SMOKE_COMMAND, TIMINGS, repository_copy, result_hashes, run_command
+from local_slurm import local_slurm, missing_prerequisites
+
+pytestmark = [
+    pytest.mark.slurm,
+    pytest.mark.skipif(missing_prerequisites() is not None, reason=f"no local SLURM: {missing_prerequisites()}"),
+]
+
+#: The README's command ("On a cluster"), on the smoke config.
+CLUSTER_COMMAND = "snakemake --workflow-profile workflow/profiles/slurm --configfile config/smoke.yaml"
+#: This cluster keeps no accounting database (so no sacct and no accounts), and its jobs
+#: take seconds: poll squeue from the first second instead of sacct after 40 s.
+TEST_CLUSTER_FLAGS = "--slurm-status-command squeue --slurm-no-account --slurm-init-seconds-before-status-checks 1"
+
+
+def test_smoke_run_on_slurm_matches_the_local_run(smoke_run, tmp_path):
+    workdir = repository_copy(tmp_path / "repository")
+    with local_slurm(tmp_path / "cluster") as env:
+        started = time.perf_counter()
+        result = run_command(workdir, f"{CLUSTER_COMMAND} {TEST_CLUSTER_FLAGS}", env=env, timeout=1200)
+        TIMINGS["slurm smoke run"] = time.perf_counter() - started
+    assert result.returncode == 0, f"{result.stdout[-3000:]}\n{result.stderr[-8000:]}"
+    assert "slurm" in result.stderr.lower()  # the jobs went through sbatch, not the local executor
+    local, cluster = result_hashes(smoke_run), result_hashes(workdir)
+    assert len(local) > 40 and cluster == local
+    print(
+        f"\nsmoke workflow wall time: local {TIMINGS.get('local smoke run', float('nan')):.0f} s "
+        f"({SMOKE_COMMAND}), SLURM {TIMINGS['slurm smoke run']:.0f} s ({CLUSTER_COMMAND})"
+    )
