@@ -43,6 +43,7 @@ include: "workflow/rules/train.smk"
 include: "workflow/rules/evaluate.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/discover.smk"
+include: "workflow/rules/sensors.smk"
 include: "workflow/rules/replicates.smk"
 include: "workflow/rules/report.smk"
 
