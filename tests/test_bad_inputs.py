@@ -104,9 +104,9 @@ def _one_trajectory(t):
 # (name, file name, how the good table is spoilt (or the file's text), what the one line must say)
 DATA = [
     ("missing input column", "cell.csv", _drop_u3, "cell.csv: missing column(s) ['u3']"),
-    ("NaN in an input", "cell.csv", _set("u2", 17, np.nan), "cell.csv: column 'u2' has a non-finite value at row 17: nan"),
+    ("NaN in an input", "cell.csv", _set("u2", 17, np.nan), "cell.csv: column 'u2' has no value at row 17 (the inputs u1..u5 are logged commands, needed at every step)"),
     ("inf in an input", "cell.csv", _set("u1", 250, np.inf), "cell.csv: column 'u1' has a non-finite value at row 250: inf"),
-    ("NaN time", "cell.csv", _set("time_s", 9, np.nan), "cell.csv: column 'time_s' has a non-finite value at row 9: nan"),
+    ("NaN time", "cell.csv", _set("time_s", 9, np.nan), "cell.csv: column 'time_s' has no value at row 9 (a key)"),
     ("text in a numeric column", "cell.csv", _set("u5", 33, "high"), "cell.csv: column 'u5' is not numeric (row 33: 'high')"),
     ("time going backwards", "cell.csv", _time_backwards,
      "cell.csv: column 'time_s' must increase within a trajectory; row 5 goes from 40.0 to 30.0"),

@@ -9,10 +9,11 @@ How each is covered:
 - the smoke run is the ``smoke_run`` fixture (conftest); the discovery target runs here
   in its folder (built by it, nothing left to do); the discovery on your own data runs in
   a fresh copy with a CSV made from simulated smoke data; Snakemake's report runs here; the five-replicate config runs here as a dry run (tests/test_workflow.py
-  runs two replicates end to end);
+  runs two replicates end to end), and so do the sensor sets; the worked own-cell example
+  (its own small config) runs in tests/test_own_data.py; the cell-constants table runs here;
 - the commands after a crash run in tests/test_resume.py, the cluster command in
   tests/test_slurm.py;
-- the training benchmark runs here on the smoke config with 2 batches (as written under
+- the training benchmark runs here with 2 timed batches per variant (as written under
   ``-m slow``); ``pytest -m slow`` is collected here (it is the slow suite itself); the conda
   command runs as a dry run where conda is installed.
 """
@@ -98,8 +99,27 @@ def check_own_data(command, smoke_run, tmp_path):
     assert findings.stat().st_size > 0
 
 
+def check_sensors_dry_run(command, smoke_run, tmp_path):
+    result = run_command(smoke_run, f"{on_smoke(command)} --dry-run")
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert "collect_sensors" in result.stdout and "results/smoke/discovery/sensors.csv" in result.stdout
+
+
+def check_worked_example(command, smoke_run, tmp_path):
+    """The example's own small config (not the smoke one) runs in tests/test_own_data.py."""
+    assert command in (REPOSITORY / "tests/test_own_data.py").read_text()
+
+
+def check_cell_constants(command, smoke_run, tmp_path):
+    workdir = tmp_path
+    (workdir / command.split()[-1]).write_text("physics: {cell: {ledge_area: 21.5}}\n")
+    result = run_command(workdir, command)
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert re.search(r"\bk9 +2\.15", result.stdout), result.stdout[:2000]  # the area the config set
+
+
 def check_benchmark(command, smoke_run, tmp_path):
-    result = run_command(smoke_run, f"{command} --config config/config.yaml config/smoke.yaml --batches 2", timeout=600)
+    result = run_command(smoke_run, f"{command} --batches 2", timeout=600)
     assert result.returncode == 0, result.stderr[-4000:]
 
 
@@ -138,6 +158,10 @@ CHECKS = {
     "snakemake --cores 2 --configfile config/replicates.yaml": check_replicates_dry_run,
     "snakemake --cores 2 results/discovery/summary.csv": check_target_is_built,
     "snakemake --cores 2 results/discovery/cell/findings.json --configfile my.yaml": check_own_data,
+    "snakemake --cores 2 results/own-cell/discovery/cell/findings.json --configfile examples/own-cell/config.yaml":
+        check_worked_example,
+    "python -m costa.cell_constants my.yaml": check_cell_constants,
+    "snakemake --cores 2 results/discovery/sensors.csv --configfile config/sensors.yaml": check_sensors_dry_run,
     "snakemake --report results/snakemake_report.html": check_report,
     "python benchmarks/train_speed.py": check_benchmark,
     "pytest -m slow": check_slow_suite_is_collected,
