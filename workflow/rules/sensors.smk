@@ -59,7 +59,9 @@ rule discover_with_sensors:
 rule collect_sensors:
     """The shipped cases under every sensor set: what was named, its closed form, the gap."""
     input:
-        findings=[sensor_findings(case, s) for case in SHIPPED_CASES for s in SENSOR_SETS],
+        findings=[
+            sensor_findings(case, s) for case in SHIPPED_CASES for s in SENSOR_SETS
+        ],
         code=package_files("discover"),
     output:
         summary=report(
