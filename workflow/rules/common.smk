@@ -28,11 +28,15 @@ def out(path):
 
 
 MODEL_TYPES = list(config["training"]["model_types"])
-EVALUATED = [*MODEL_TYPES, "pbm"]  # the trained types and the ablated physics model
+# the trained types, the ablated physics model and (config/beyond.yaml) the discovered model
+DISCOVERED = ["discovered"] if config["beyond"]["discovered_model"] else []
+EVALUATED = [*MODEL_TYPES, "pbm", *DISCOVERED]
+REPLICATE_PATTERN = r"(replicates/r[1-9][0-9]*/)?"
 
 
 wildcard_constraints:
-    rep=r"(replicates/r[1-9][0-9]*/)?",
+    # a replicate's folder, or (config/beyond.yaml) a noisy-training variant inside it
+    rep=REPLICATE_PATTERN + r"(noise/[0-9.]+/)?",
     split="train|test",
     model_type="|".join(MODEL_TYPES),
     model="|".join(EVALUATED),
@@ -43,9 +47,19 @@ def replicate_prefix(index):
     return "" if index == 0 else f"replicates/r{index}/"
 
 
-def replicate_index(wildcards):
-    match = re.fullmatch(r"replicates/r(\d+)/", wildcards.rep)
+def replicate_number(rep):
+    """The replicate of a prefix ("" -> 0, "replicates/r3/..." -> 3)."""
+    match = re.match(r"replicates/r(\d+)/", rep)
     return int(match.group(1)) if match else 0
+
+
+def replicate_index(wildcards):
+    return replicate_number(wildcards.rep)
+
+
+def clean_prefix(rep):
+    """The replicate's own folder of a (possibly noisy-training) prefix: its test set, its clean training set."""
+    return re.sub(r"noise/[0-9.]+/$", "", rep)
 
 
 REPLICATES = [replicate_prefix(index) for index in range(config["replicates"])]
@@ -177,6 +191,7 @@ def job_benchmarks(rep):
 def all_targets():
     targets = [f"{REPORT}/report.html"]
     targets += expand(out("discovery/{case}/discovery.png"), case=DISCOVERY_CASES)
+    targets += beyond_targets()
     targets += across_replicates(
         out("replicates/aggregate.csv"),
         out("replicates/claims.csv"),
