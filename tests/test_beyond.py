@@ -99,8 +99,8 @@ def bounded_pair(rng, pbm, margin, inputs):
         target_low=-rng.uniform(0.1, 0.5, 8), target_high=rng.uniform(0.1, 0.5, 8),
     )  # fmt: skip
     plain = NetworkModel(ModelType("costa_sparse", "costa", 1e-4), ensemble, normalisation, pbm, {})
-    bound = {"margin": margin, "inputs": inputs}
-    bounded = NetworkModel(ModelType("costa_bounded", "costa", 1e-4, source_bound=bound), ensemble, normalisation, pbm, {})
+    bounded_type = ModelType("costa_bounded", "costa", 1e-4, source_bound={"margin": margin, "inputs": inputs})
+    bounded = NetworkModel(bounded_type, ensemble, normalisation, pbm, {})
 
     def source(model, x, u):
         xt, ut = torch.from_numpy(x), torch.from_numpy(u)

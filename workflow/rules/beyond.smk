@@ -1,30 +1,6 @@
 # Past the paper's forecasts (config/beyond.yaml): the discovered model on the paper's test
 # set, the noise study, and the stable CoSTA variant (a model type: training.model_types).
-# With the default config every list here is empty and no rule of this file is scheduled.
-NOISE = config["beyond"]["noise"]
-NOISE_LEVELS = [f"{level:g}" for level in NOISE["levels"]]
-NOISE_TYPES = [*NOISE["model_types"], *DISCOVERED]
-NOISE_REPLICATES = REPLICATES[: NOISE["replicates"]] if NOISE_LEVELS else []
-
-
-def noise_prefix(level):
-    """Level 0 is the run itself; level p trains on {replicate}noise/p/data/train.parquet."""
-    return "" if float(level) == 0 else f"noise/{level}/"
-
-
-# every noise study rollout, in one order: (replicate, level, model) and its metrics file
-NOISE_RUNS = [
-    (replicate_number(rep), float(level), model, out(f"{rep}{noise_prefix(level)}eval/{model}/metrics.parquet"))
-    for rep in NOISE_REPLICATES
-    for level in NOISE_LEVELS
-    for model in NOISE_TYPES
-]
-
-
-def beyond_targets():
-    return [out("beyond/noise.csv"), out("beyond/noise.png")] if NOISE_RUNS else []
-
-
+# With the default config no rule of this file is scheduled (the lists in common.smk are empty).
 rule noisy_training_set:
     """The replicate's training set with measurement noise of {level} % of each state's std."""
     input:
@@ -54,7 +30,9 @@ rule rollout_discovered:
     the test set like the PBM (model "discovered")."""
     input:
         train=out("{rep}data/train.parquet"),
-        clean_train=lambda wildcards: out(f"{clean_prefix(wildcards.rep)}data/train.parquet"),
+        clean_train=lambda wildcards: out(
+            f"{clean_prefix(wildcards.rep)}data/train.parquet"
+        ),
         test=lambda wildcards: out(f"{clean_prefix(wildcards.rep)}data/test.parquet"),
         code=EVALUATION_CODE + DISCOVERY_CODE + package_files("beyond.py"),
     output:
@@ -74,7 +52,9 @@ rule rollout_discovered:
     params:
         config=discovery_config,
         # a noisy training set needs no floor; the clean one does (schema: beyond.floor_noise)
-        floor_noise=lambda wildcards: 0.0 if "noise/" in wildcards.rep else config["beyond"]["floor_noise"],
+        floor_noise=lambda wildcards: (
+            0.0 if "noise/" in wildcards.rep else config["beyond"]["floor_noise"]
+        ),
         name=lambda wildcards: f"{wildcards.rep}training_set",
     script:
         "../scripts/rollout_discovered.py"

@@ -209,3 +209,33 @@ def all_targets():
             f"{prefix}figures/rolling_forecast.png",
         ]
     return targets
+
+
+# Past the paper's forecasts (config/beyond.yaml, workflow/rules/beyond.smk): the noise study.
+NOISE = config["beyond"]["noise"]
+NOISE_LEVELS = [f"{level:g}" for level in NOISE["levels"]]
+NOISE_TYPES = [*NOISE["model_types"], *DISCOVERED]
+NOISE_REPLICATES = REPLICATES[: NOISE["replicates"]] if NOISE_LEVELS else []
+
+
+def noise_prefix(level):
+    """Level 0 is the run itself; level p trains on {replicate}noise/p/data/train.parquet."""
+    return "" if float(level) == 0 else f"noise/{level}/"
+
+
+# every noise study rollout, in one order: (replicate, level, model) and its metrics file
+NOISE_RUNS = [
+    (
+        replicate_number(rep),
+        float(level),
+        model,
+        out(f"{rep}{noise_prefix(level)}eval/{model}/metrics.parquet"),
+    )
+    for rep in NOISE_REPLICATES
+    for level in NOISE_LEVELS
+    for model in NOISE_TYPES
+]
+
+
+def beyond_targets():
+    return [out("beyond/noise.csv"), out("beyond/noise.png")] if NOISE_RUNS else []
