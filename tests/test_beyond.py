@@ -135,11 +135,32 @@ def test_input_clamp_changes_only_inputs_outside_the_training_range(rng, pbm):
     torch.testing.assert_close(source(bounded, x, u), network_at_clamped, rtol=1e-5, atol=1e-5)
 
 
+@pytest.mark.parametrize("margin", [0.0, 0.1])
+def test_rate_bound_keeps_every_rate_in_the_training_range_and_equals_costa_inside(rng, pbm, margin):
+    x, u = random_operating_points(rng, 500)
+    plain, _, n, _, _, _ = bounded_pair(rng, pbm, 0.0, inputs=False)
+    free = plain.rhs(torch.from_numpy(x).expand(3, -1, -1), torch.from_numpy(u))
+    # the training rates span the middle 80 % of these rates, so that some fall outside
+    low, high = np.quantile(free.numpy().reshape(-1, 8), [0.1, 0.9], axis=0)
+    ranged = Normalisation(**{**vars(n), "rate_low": low, "rate_high": high})
+    bounded_type = ModelType("costa_rate_bounded", "costa", 1e-4, rate_bound={"margin": margin})
+    bounded = NetworkModel(bounded_type, plain.ensemble, ranged, pbm, {})
+    held = bounded.rhs(torch.from_numpy(x).expand(3, -1, -1), torch.from_numpy(u))
+    width = margin * (high - low)
+    low, high = torch.from_numpy(low - width), torch.from_numpy(high + width)
+    assert (held >= low).all() and (held <= high).all()
+    inside = (free >= low) & (free <= high)
+    assert 0.3 < inside.double().mean() < 0.99
+    torch.testing.assert_close(held[inside], free[inside], rtol=0, atol=0)
+    torch.testing.assert_close(held, torch.clamp(free, low, high), rtol=0, atol=0)
+
+
 def test_bounded_and_smoothed_types_train_save_and_reload(smoke_config, smoke_train, tmp_path):
     x, u = smoke_train
     config = copy.deepcopy(smoke_config)
     config["training"]["model_types"] = {
-        "costa_bounded": {"target": "costa", "l1_lambda": 1e-4, "source_bound": {"margin": 0.0, "inputs": True}},
+        "costa_bounded": {"target": "costa", "l1_lambda": 1e-4, "source_bound": {"margin": 0.0, "inputs": True},
+                          "rate_bound": {"margin": 0.0}},
         "costa_smooth": {"target": "costa", "l1_lambda": 1e-4, "savgol": {"window": 11, "order": 2}},
     }
     for name in config["training"]["model_types"]:
@@ -147,6 +168,7 @@ def test_bounded_and_smoothed_types_train_save_and_reload(smoke_config, smoke_tr
         n = fitted.normalisation
         data = training_data(x, u, DT, "costa", load_models_pbm(config), fitted.model_type.savgol)
         np.testing.assert_array_equal(n.target_low, data.targets.numpy().min(0))
+        assert (n.rate_low < n.rate_high).all()
         paths = [tmp_path / f"{name}{i}.pt" for i in range(2)]
         for member, path in enumerate(paths):
             save_instance(path, fitted.ensemble, member, fitted.model_type, n, config, {})

@@ -13,9 +13,10 @@ by a Savitzky-Golay filter, so that the CoSTA target is the smoothed residual
 SG(r - f_PBM) (linear, so SG(r) - SG(f_PBM)) and the statistics mean(r), std(r) are
 those of SG(r).  Smoothing the residual rather than the states keeps the steps that
 the inputs cause (a feed impulse) out of the filter: they are in both r and f_PBM.
-A model type may also bound its corrective source (``source_bound``, used when
-forecasting: :mod:`costa.models`); training is the same, and the training set's
-ranges of the standardised inputs and targets are stored with every model.
+A model type may also bound its corrective source (``source_bound``) or its whole
+rate (``rate_bound``) when forecasting (:mod:`costa.models`); training is the same,
+and the training set's ranges of the standardised inputs and targets and of the
+rates are stored with every model.
 
 The loss of member e is MSE_e + lambda * sum|W_e| (weights only).  All instances of
 a type see the same mini-batches (as in the authors' notebook) and differ by their
@@ -65,7 +66,8 @@ class ModelType:
     smooths the targets; ``source_bound`` ({margin, inputs}, or None) bounds the
     network's output, when forecasting, to the training targets' range widened by
     ``margin`` times its width on each side, and with ``inputs`` also clamps the
-    standardised inputs to the training set's range.
+    standardised inputs to the training set's range; ``rate_bound`` ({margin}, or
+    None) bounds the model's dx/dt to the training rates' range, widened alike.
     """
 
     name: str
@@ -73,6 +75,7 @@ class ModelType:
     l1_lambda: float
     savgol: Mapping | None = None
     source_bound: Mapping | None = None
+    rate_bound: Mapping | None = None
 
     def __post_init__(self):
         if self.target not in TARGETS:
@@ -116,8 +119,8 @@ class TrainingSettings:
 @dataclass(frozen=True)
 class Normalisation:
     """Training-set statistics (float64): inputs (13,) and rates (8,); the ranges
-    (minimum, maximum) of the standardised inputs (13,) and targets (8,), which only a
-    bounded model type (``source_bound``) needs."""
+    (minimum, maximum) of the standardised inputs (13,) and targets (8,) and of the
+    rates (8,), which only a bounded model type (``source_bound``, ``rate_bound``) needs."""
 
     input_mean: np.ndarray
     input_std: np.ndarray
@@ -127,6 +130,8 @@ class Normalisation:
     input_high: np.ndarray | None = None
     target_low: np.ndarray | None = None
     target_high: np.ndarray | None = None
+    rate_low: np.ndarray | None = None
+    rate_high: np.ndarray | None = None
 
     def as_dict(self) -> dict[str, list[float]]:
         return {k: np.asarray(v).tolist() for k, v in vars(self).items() if v is not None}
@@ -189,7 +194,7 @@ def training_data(
     return TrainingData(
         torch.from_numpy(inputs),
         torch.from_numpy(targets),
-        Normalisation(input_mean, input_std, rate_mean, rate_std, *ranges),
+        Normalisation(input_mean, input_std, rate_mean, rate_std, *ranges, rates.min(0), rates.max(0)),
     )
 
 
