@@ -50,7 +50,11 @@ rule rollout_discovered:
     resources:
         mem_mb=4000,
     params:
-        config=discovery_config,
+        # what a discovery run reads (not the training settings: changing them retrains, not rediscovers)
+        config=lambda wildcards: {
+            key: config[key]
+            for key in ("seed", "physics", "simulation", "evaluation", "discovery")
+        },
         # a noisy training set needs no floor; the clean one does (schema: beyond.floor_noise)
         floor_noise=lambda wildcards: (
             0.0 if "noise/" in wildcards.rep else config["beyond"]["floor_noise"]
