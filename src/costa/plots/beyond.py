@@ -34,6 +34,9 @@ def plot_noise_study(table: pd.DataFrame) -> plt.Figure:
                     capsize=2, label=f"{model_label(model)} (of {int(part['rollouts'].max())})",
                 )  # fmt: skip
             ax.set_xscale("symlog", linthresh=0.5)
+            levels = sorted(table["noise"].unique())
+            ax.set_xticks(levels, [f"{level:g}" for level in levels])
+            ax.xaxis.set_minor_locator(plt.NullLocator())
             if stat == "median":
                 ax.set_yscale("log")
                 ax.set_title(f"{window} window")
