@@ -45,6 +45,7 @@ include: "workflow/rules/figures.smk"
 include: "workflow/rules/discover.smk"
 include: "workflow/rules/sensors.smk"
 include: "workflow/rules/replicates.smk"
+include: "workflow/rules/beyond.smk"
 include: "workflow/rules/report.smk"
 
 

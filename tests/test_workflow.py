@@ -90,3 +90,32 @@ def test_snakemake_files_are_formatted():
     files = [str(REPOSITORY / "Snakefile"), *map(str, sorted((REPOSITORY / "workflow" / "rules").glob("*.smk")))]
     result = subprocess.run([sys.executable, "-m", "snakefmt", "--check", *files], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+def test_beyond_config_adds_the_discovered_model_the_noise_study_and_the_stable_variant(tmp_path):
+    """config/beyond.yaml's pieces on the smoke sizes: new types, the discovered model's rows, noise levels."""
+    tiny = tmp_path / "tiny_beyond.yaml"
+    tiny.write_text(
+        "training:\n  model_types:\n"
+        "    costa_bounded: {target: costa, l1_lambda: 1.0e-4, source_bound: {margin: 0.0, inputs: true}}\n"
+        "    costa_smooth: {target: costa, l1_lambda: 1.0e-4, savgol: {window: 11, order: 2}}\n"
+        "beyond: {discovered_model: true, noise: {levels: [0, 5], model_types: [costa_smooth]}}\n"
+        "figures: {rolling_forecast_types: [costa_sparse, costa_bounded]}\n"
+        "discovery: {cases: []}\n"
+    )
+    snakemake(tmp_path, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"), str(tiny))
+    results = tmp_path / "results/smoke"
+    metrics = pd.read_parquet(results / "eval/metrics.parquet")
+    discovered = metrics[metrics.model_type == "discovered"]
+    # one rollout per test trajectory, like the PBM: 4 trajectories x 3 windows x 2 definitions
+    assert len(discovered) == 4 * 3 * 2 and (discovered.instance == 0).all()
+    assert len(metrics) == (6 * 2 + 2) * 4 * 3 * 2
+    noisy = pd.read_parquet(results / "noise/5/data/train.parquet")
+    clean = pd.read_parquet(results / "data/train.parquet")
+    assert noisy["u2"].equals(clean["u2"]) and not noisy["x6"].equals(clean["x6"])
+    assert (results / "noise/5/eval/discovered/findings.json").stat().st_size > 0
+    noise = pd.read_csv(results / "beyond/noise.csv")
+    assert set(noise.noise) == {0.0, 5.0} and set(noise.model_type) == {"costa_smooth", "discovered"}
+    assert len(noise) == 2 * 2 * 3 and (results / "beyond/noise.png").stat().st_size > 0
+    html = (results / "report/report.html").read_text()
+    assert "The discovered model on the paper" in html and "A stable CoSTA" in html and "No noise study" not in html

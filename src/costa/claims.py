@@ -64,7 +64,8 @@ def _value(summary: pd.DataFrame, model: str, window: str, column: str) -> float
 
 
 def _types(summary: pd.DataFrame, prefix: str) -> list[str]:
-    return sorted(m for m in summary.model_type.unique() if m.startswith(prefix))
+    """The paper's dense and sparse types of one kind (other types, e.g. config/beyond.yaml's, are not its claims)."""
+    return sorted(m for m in summary.model_type.unique() if m in (f"{prefix}_dense", f"{prefix}_sparse"))
 
 
 def _windows(summary: pd.DataFrame) -> list[str]:

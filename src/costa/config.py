@@ -74,6 +74,14 @@ def check_consistency(config: Mapping[str, Any]) -> None:
         )
     _check_cell(config["physics"])
     _check_gap_windows(user)
+    noise = config["beyond"]["noise"]
+    unknown = sorted(set(noise["model_types"]) - set(config["training"]["model_types"]))
+    if unknown:
+        raise ConfigError(f"beyond.noise.model_types {unknown} are not in training.model_types")
+    if noise["levels"] and noise["replicates"] > config["replicates"]:
+        raise ConfigError(
+            f"beyond.noise.replicates = {noise['replicates']} is more than the run's replicates = {config['replicates']}"
+        )
     copied = evaluation["copied_samples"]
     if max(copied.values()) >= steps:
         raise ConfigError(f"evaluation.copied_samples {copied} must be below simulation.steps = {steps}")

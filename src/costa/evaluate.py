@@ -12,13 +12,15 @@ import pandas as pd
 from .forecast import rollout_networks, rollout_physics
 from .metrics import EvaluationSettings, metrics_table, per_state_table, state_scale
 from .models import load_models
-from .physics import model_from_config
+from .physics import CellModel, model_from_config
 from .variables import STATES
 
-__all__ = ["Evaluation", "PBM", "evaluate", "forecast_table"]
+__all__ = ["DISCOVERED", "Evaluation", "PBM", "evaluate", "forecast_table"]
 
 #: the name the ablated physics model is evaluated under
 PBM = "pbm"
+#: the name the discovery's corrected model is evaluated under (config/beyond.yaml)
+DISCOVERED = "discovered"
 
 
 @dataclass(frozen=True)
@@ -56,15 +58,18 @@ def evaluate(
     u_test: np.ndarray,
     x_train: np.ndarray,
     model_paths: Sequence[str | Path] = (),
+    physics: CellModel | None = None,
 ) -> Evaluation:
-    """Roll out ``model`` (a trained type, or :data:`PBM`) on every test trajectory and score it."""
+    """Roll out ``model`` (a trained type, :data:`PBM`, or a physics model given as ``physics``,
+    e.g. the discovery's corrected model) on every test trajectory and score it; physics
+    models run as the PBM does (RK4 from the first true sample)."""
     evaluation = config["evaluation"]
     settings = EvaluationSettings.from_config(evaluation)
     settings.check(x_test.shape[1])
     dt = config["simulation"]["dt_s"]
-    if model == PBM:
-        pbm = model_from_config(config["physics"])[1]
-        x_hat = rollout_physics(pbm, x_test, u_test, dt, evaluation["copied_samples"]["physics"])[None]
+    if model == PBM or physics is not None:
+        physics = model_from_config(config["physics"])[1] if physics is None else physics
+        x_hat = rollout_physics(physics, x_test, u_test, dt, evaluation["copied_samples"]["physics"])[None]
     else:
         if not model_paths:
             raise ValueError(f"{model}: no trained instances given")

@@ -4,6 +4,12 @@
 - CoSTA: dx/dt = f_PBM(x, u) + NN(z) * std(r)
 
 with z the standardised (x, u) and r the training set's finite-difference rates.
+A model type with a ``source_bound`` clamps NN(z) to the training targets' range
+widened by ``margin`` times its width on each side (the corrective source cannot
+leave what the training data showed), and with ``inputs`` also clamps z to the
+training inputs' range (the network is not asked to extrapolate).  A ``rate_bound``
+clamps the model's dx/dt to the training rates' range, widened alike (no state moves
+faster than the training data ever did).  Inside the ranges it is the plain model.
 Each trained instance is saved on its own with everything needed to predict: its
 weights, the normalisation, its model type and the config it came from (from which
 the PBM of a CoSTA model is rebuilt).
@@ -16,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from .ensemble import MLPEnsemble
@@ -43,6 +50,22 @@ class NetworkModel:
         n = self.normalisation
         self._input_mean, self._input_std = torch.from_numpy(n.input_mean), torch.from_numpy(n.input_std)
         self._rate_mean, self._rate_std = torch.from_numpy(n.rate_mean), torch.from_numpy(n.rate_std)
+        self._bounds = self._rate_bounds = None
+        if self.model_type.rate_bound is not None:
+            if n.rate_low is None:
+                raise ValueError(f"{self.model_type.name}: a rate bound needs the training rates' range")
+            width = self.model_type.rate_bound["margin"] * (n.rate_high - n.rate_low)
+            self._rate_bounds = (torch.from_numpy(n.rate_low - width), torch.from_numpy(n.rate_high + width))
+        bound = self.model_type.source_bound
+        if bound is not None:
+            if n.target_low is None or n.input_low is None:
+                raise ValueError(f"{self.model_type.name}: a source bound needs the training ranges in its normalisation")
+            width = bound["margin"] * (n.target_high - n.target_low)
+            inputs = (n.input_low, n.input_high) if bound["inputs"] else None
+            self._bounds = tuple(
+                None if b is None else torch.from_numpy(np.asarray(b)).float()
+                for b in (*(inputs or (None, None)), n.target_low - width, n.target_high + width)
+            )
 
     @property
     def n_members(self) -> int:
@@ -53,10 +76,19 @@ class NetworkModel:
         """dx/dt (E, B, 8) float64 for states x (E, B, 8) and inputs u (B, 5) or (E, B, 5)."""
         u = u.expand(x.shape[0], *u.shape[-2:]) if u.dim() == 2 else u
         z = ((torch.cat([x, u], dim=-1) - self._input_mean) / self._input_std).float()
-        correction = self.ensemble(z).double() * self._rate_std
-        if self.model_type.target == "ddm":
-            return correction + self._rate_mean
-        return self.pbm.rhs(x, u) + correction
+        output = self._network(z)
+        correction = output.double() * self._rate_std
+        rate = correction + self._rate_mean if self.model_type.target == "ddm" else self.pbm.rhs(x, u) + correction
+        return rate if self._rate_bounds is None else torch.clamp(rate, *self._rate_bounds)
+
+    def _network(self, z: torch.Tensor) -> torch.Tensor:
+        """NN(z) (E, B, 8), within the source bound if the model type has one."""
+        if self._bounds is None:
+            return self.ensemble(z)
+        input_low, input_high, low, high = self._bounds
+        if input_low is not None:
+            z = torch.clamp(z, input_low, input_high)
+        return torch.clamp(self.ensemble(z), low, high)
 
 
 def save_instance(

@@ -7,6 +7,17 @@ rate r_k = (x_{k+1} - x_k)/dt, the targets are
 - DDM:   (r_k - mean(r)) / std(r)
 - CoSTA: (r_k - f_PBM(x_k, u_k)) / std(r)   (no mean subtracted)
 
+as published.  A model type may instead denoise its targets (``savgol``): the rates
+r and the PBM's rates f_PBM are each smoothed along time, trajectory by trajectory,
+by a Savitzky-Golay filter, so that the CoSTA target is the smoothed residual
+SG(r - f_PBM) (linear, so SG(r) - SG(f_PBM)) and the statistics mean(r), std(r) are
+those of SG(r).  Smoothing the residual rather than the states keeps the steps that
+the inputs cause (a feed impulse) out of the filter: they are in both r and f_PBM.
+A model type may also bound its corrective source (``source_bound``) or its whole
+rate (``rate_bound``) when forecasting (:mod:`costa.models`); training is the same,
+and the training set's ranges of the standardised inputs and targets and of the
+rates are stored with every model.
+
 The loss of member e is MSE_e + lambda * sum|W_e| (weights only).  All instances of
 a type see the same mini-batches (as in the authors' notebook) and differ by their
 initialisation; Adam runs once over the stacked tensors, which is the per-instance
@@ -19,11 +30,12 @@ import logging
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 import pandas as pd
 import torch
+from scipy.signal import savgol_filter
 
 from . import seeds
 from .ensemble import MLPEnsemble, StackedAdam, ensemble_gradients
@@ -38,6 +50,7 @@ __all__ = [
     "TrainingData",
     "TrainingSettings",
     "prune",
+    "smooth_in_time",
     "sparsity",
     "train_ensemble",
     "train_model_type",
@@ -88,17 +101,30 @@ def compiled_or_eager(fn: Callable) -> Callable:
 
 @dataclass(frozen=True)
 class ModelType:
-    """One of the compared model types: its target and its l1 weight."""
+    """One of the compared model types: its target, its l1 weight and two options.
+
+    ``savgol`` ({window, order}, or None for the published forward differences)
+    smooths the targets; ``source_bound`` ({margin, inputs}, or None) bounds the
+    network's output, when forecasting, to the training targets' range widened by
+    ``margin`` times its width on each side, and with ``inputs`` also clamps the
+    standardised inputs to the training set's range; ``rate_bound`` ({margin}, or
+    None) bounds the model's dx/dt to the training rates' range, widened alike.
+    """
 
     name: str
     target: str
     l1_lambda: float
+    savgol: Mapping | None = None
+    source_bound: Mapping | None = None
+    rate_bound: Mapping | None = None
 
     def __post_init__(self):
         if self.target not in TARGETS:
             raise ValueError(f"model type {self.name!r}: unknown target {self.target!r}; known: {TARGETS}")
         if self.l1_lambda < 0:
             raise ValueError(f"model type {self.name!r}: l1_lambda must be >= 0, got {self.l1_lambda}")
+        if self.savgol is not None and not 0 <= self.savgol["order"] < self.savgol["window"]:
+            raise ValueError(f"model type {self.name!r}: savgol.order must be below savgol.window, got {self.savgol}")
 
 
 @dataclass(frozen=True)
@@ -133,21 +159,27 @@ class TrainingSettings:
 
 @dataclass(frozen=True)
 class Normalisation:
-    """Training-set statistics (float64): inputs (13,) and finite-difference rates (8,)."""
+    """Training-set statistics (float64): inputs (13,) and rates (8,); the ranges
+    (minimum, maximum) of the standardised inputs (13,) and targets (8,) and of the
+    rates (8,), which only a bounded model type (``source_bound``, ``rate_bound``) needs."""
 
     input_mean: np.ndarray
     input_std: np.ndarray
     rate_mean: np.ndarray
     rate_std: np.ndarray
+    input_low: np.ndarray | None = None
+    input_high: np.ndarray | None = None
+    target_low: np.ndarray | None = None
+    target_high: np.ndarray | None = None
+    rate_low: np.ndarray | None = None
+    rate_high: np.ndarray | None = None
 
     def as_dict(self) -> dict[str, list[float]]:
-        return {k: np.asarray(v).tolist() for k, v in vars(self).items()}
+        return {k: np.asarray(v).tolist() for k, v in vars(self).items() if v is not None}
 
     @classmethod
     def from_dict(cls, d: Mapping) -> Normalisation:
-        return cls(
-            **{k: np.asarray(d[k], dtype=np.float64) for k in ("input_mean", "input_std", "rate_mean", "rate_std")}
-        )
+        return cls(**{f.name: np.asarray(d[f.name], dtype=np.float64) for f in fields(cls) if f.name in d})
 
 
 @dataclass(frozen=True)
@@ -159,14 +191,31 @@ class TrainingData:
     normalisation: Normalisation
 
 
-def training_data(x: np.ndarray, u: np.ndarray, dt: float, target: str, pbm: CellModel | None = None) -> TrainingData:
-    """Inputs and targets from trajectories x (n, K, 8), u (n, K, 5) sampled every dt [s]."""
+def smooth_in_time(values: np.ndarray, savgol: Mapping | None) -> np.ndarray:
+    """values (n, K, ...) smoothed along K, trajectory by trajectory, by a Savitzky-Golay
+    filter of ``savgol`` = {window, order}; unchanged for None."""
+    if savgol is None:
+        return values
+    window, order = int(savgol["window"]), int(savgol["order"])
+    if window > values.shape[1]:
+        raise ValueError(f"savgol.window ({window}) is longer than the trajectories' {values.shape[1]} rates")
+    return savgol_filter(values, window, order, axis=1)
+
+
+def training_data(
+    x: np.ndarray, u: np.ndarray, dt: float, target: str, pbm: CellModel | None = None, savgol: Mapping | None = None
+) -> TrainingData:
+    """Inputs and targets from trajectories x (n, K, 8), u (n, K, 5) sampled every dt [s].
+
+    ``savgol`` ({window, order}) smooths the targets (module docstring); None keeps
+    the published forward differences.
+    """
     if target not in TARGETS:
         raise ValueError(f"unknown target {target!r}; known: {TARGETS}")
     samples = np.concatenate([x, u], axis=-1)
     flat = samples.reshape(-1, 13)
     input_mean, input_std = flat.mean(axis=0), flat.std(axis=0, ddof=1)
-    rates = ((x[:, 1:] - x[:, :-1]) / dt).reshape(-1, 8)
+    rates = smooth_in_time((x[:, 1:] - x[:, :-1]) / dt, savgol).reshape(-1, 8)
     rate_mean, rate_std = rates.mean(axis=0), rates.std(axis=0, ddof=1)
     constant = [name for name, std in zip((*STATES, *INPUTS), input_std, strict=True) if std == 0]
     constant += [f"d{name}/dt" for name, std in zip(STATES, rate_std, strict=True) if std == 0]
@@ -179,12 +228,14 @@ def training_data(x: np.ndarray, u: np.ndarray, dt: float, target: str, pbm: Cel
         if pbm is None:
             raise ValueError("CoSTA targets need the physics model (pbm)")
         with np.errstate(all="ignore"):
-            physics = pbm.rhs(x[:, :-1], u[:, :-1]).reshape(-1, 8)
+            physics = smooth_in_time(pbm.rhs(x[:, :-1], u[:, :-1]), savgol).reshape(-1, 8)
         targets = (rates - physics) / rate_std
+    inputs, targets = inputs.astype(np.float32), targets.astype(np.float32)
+    ranges = [a.astype(np.float64) for a in (inputs.min(0), inputs.max(0), targets.min(0), targets.max(0))]
     return TrainingData(
-        torch.from_numpy(inputs.astype(np.float32)),
-        torch.from_numpy(targets.astype(np.float32)),
-        Normalisation(input_mean, input_std, rate_mean, rate_std),
+        torch.from_numpy(inputs),
+        torch.from_numpy(targets),
+        Normalisation(input_mean, input_std, rate_mean, rate_std, *ranges, rates.min(0), rates.max(0)),
     )
 
 
@@ -286,7 +337,7 @@ def train_model_type(
     model_type = ModelType(name, **training["model_types"][name])
     settings = TrainingSettings.from_config(training)
     pbm = model_from_config(config["physics"])[1]
-    data = training_data(x, u, config["simulation"]["dt_s"], model_type.target, pbm)
+    data = training_data(x, u, config["simulation"]["dt_s"], model_type.target, pbm, model_type.savgol)
     init = [seeds.torch_generator(config["seed"], replicate, f"init/{name}", i) for i in range(settings.instances)]
     shuffle = seeds.torch_generator(config["seed"], replicate, f"shuffle/{name}")
     ensemble, losses = train_ensemble(data, model_type, settings, init, shuffle, log)

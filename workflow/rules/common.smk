@@ -28,11 +28,15 @@ def out(path):
 
 
 MODEL_TYPES = list(config["training"]["model_types"])
-EVALUATED = [*MODEL_TYPES, "pbm"]  # the trained types and the ablated physics model
+# the trained types, the ablated physics model and (config/beyond.yaml) the discovered model
+DISCOVERED = ["discovered"] if config["beyond"]["discovered_model"] else []
+EVALUATED = [*MODEL_TYPES, "pbm", *DISCOVERED]
+REPLICATE_PATTERN = r"(replicates/r[1-9][0-9]*/)?"
 
 
 wildcard_constraints:
-    rep=r"(replicates/r[1-9][0-9]*/)?",
+    # a replicate's folder, or (config/beyond.yaml) a noisy-training variant inside it
+    rep=REPLICATE_PATTERN + r"(noise/[0-9.]+/)?",
     case=r"[A-Za-z0-9_-]+",
     split="train|test",
     model_type="|".join(MODEL_TYPES),
@@ -44,9 +48,19 @@ def replicate_prefix(index):
     return "" if index == 0 else f"replicates/r{index}/"
 
 
-def replicate_index(wildcards):
-    match = re.fullmatch(r"replicates/r(\d+)/", wildcards.rep)
+def replicate_number(rep):
+    """The replicate of a prefix ("" -> 0, "replicates/r3/..." -> 3)."""
+    match = re.match(r"replicates/r(\d+)/", rep)
     return int(match.group(1)) if match else 0
+
+
+def replicate_index(wildcards):
+    return replicate_number(wildcards.rep)
+
+
+def clean_prefix(rep):
+    """The replicate's own folder of a (possibly noisy-training) prefix: its test set, its clean training set."""
+    return re.sub(r"noise/[0-9.]+/$", "", rep)
 
 
 REPLICATES = [replicate_prefix(index) for index in range(config["replicates"])]
@@ -216,6 +230,7 @@ def all_targets():
     targets += expand(out("discovery/{case}/discovery.png"), case=DISCOVERY_CASES)
     if SENSOR_SETS != ["full"] and SHIPPED_CASES:
         targets.append(out("discovery/sensors.csv"))
+    targets += beyond_targets()
     targets += across_replicates(
         out("replicates/aggregate.csv"),
         out("replicates/claims.csv"),
@@ -233,3 +248,33 @@ def all_targets():
             f"{prefix}figures/rolling_forecast.png",
         ]
     return targets
+
+
+# Past the paper's forecasts (config/beyond.yaml, workflow/rules/beyond.smk): the noise study.
+NOISE = config["beyond"]["noise"]
+NOISE_LEVELS = [f"{level:g}" for level in NOISE["levels"]]
+NOISE_TYPES = [*NOISE["model_types"], *DISCOVERED]
+NOISE_REPLICATES = REPLICATES[: NOISE["replicates"]] if NOISE_LEVELS else []
+
+
+def noise_prefix(level):
+    """Level 0 is the run itself; level p trains on {replicate}noise/p/data/train.parquet."""
+    return "" if float(level) == 0 else f"noise/{level}/"
+
+
+# every noise study rollout, in one order: (replicate, level, model) and its metrics file
+NOISE_RUNS = [
+    (
+        replicate_number(rep),
+        float(level),
+        model,
+        out(f"{rep}{noise_prefix(level)}eval/{model}/metrics.parquet"),
+    )
+    for rep in NOISE_REPLICATES
+    for level in NOISE_LEVELS
+    for model in NOISE_TYPES
+]
+
+
+def beyond_targets():
+    return [out("beyond/noise.csv"), out("beyond/noise.png")] if NOISE_RUNS else []

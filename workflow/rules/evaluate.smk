@@ -1,8 +1,10 @@
 rule rollout:
     """Roll one model type (or the PBM) out on every test trajectory and score it (docs/model.md §6)."""
     input:
-        test=out("{rep}data/test.parquet"),
-        train=out("{rep}data/train.parquet"),
+        # a model trained on noisy data (beyond.smk) is scored on its replicate's clean test set
+        # with the clean training set's scale
+        test=lambda wildcards: out(f"{clean_prefix(wildcards.rep)}data/test.parquet"),
+        train=lambda wildcards: out(f"{clean_prefix(wildcards.rep)}data/train.parquet"),
         models=trained_instances,
         code=EVALUATION_CODE,
     output:
@@ -13,6 +15,8 @@ rule rollout:
         out("{rep}logs/rollout_{model}.log"),
     benchmark:
         out("{rep}benchmarks/rollout_{model}.tsv")
+    wildcard_constraints:
+        model="|".join([*MODEL_TYPES, "pbm"]),  # the discovered model: rule rollout_discovered
     conda:
         ENV
     threads: 1

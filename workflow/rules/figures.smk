@@ -86,7 +86,7 @@ rule plot_rolling_forecast:
         test=out("{rep}data/test.parquet"),
         forecasts=expand(
             out("{{rep}}eval/{model}/forecasts.parquet"),
-            model=[*config["figures"]["rolling_forecast_types"], "pbm"],
+            model=[*config["figures"]["rolling_forecast_types"], "pbm", *DISCOVERED],
         ),
         code=package_files("plots"),
     output:
@@ -106,6 +106,7 @@ rule plot_rolling_forecast:
     params:
         trajectory=config["figures"]["rolling_forecast_trajectory"],
         types=config["figures"]["rolling_forecast_types"],
+        physics=["pbm", *DISCOVERED],
         liquidus=config["physics"]["ablated_liquidus_temperature"],
     script:
         "../scripts/plot_rolling_forecast.py"

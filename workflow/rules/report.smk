@@ -27,6 +27,8 @@ rule report:
         replicate_aggregate=across_replicates(out("replicates/aggregate.csv")),
         replicate_claims=across_replicates(out("replicates/claims.csv")),
         replicate_blowups=across_replicates(out("replicates/blowups.png")),
+        beyond_findings=expand(out("eval/{model}/findings.json"), model=DISCOVERED),
+        noise_table=beyond_targets(),
         code=package_files("report.py", "offline.html.j2", "paper.py", "plots"),
     output:
         html=f"{REPORT}/report.html",

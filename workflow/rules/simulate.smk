@@ -8,6 +8,8 @@ rule simulate:
         out("{rep}logs/simulate_{split}.log"),
     benchmark:
         out("{rep}benchmarks/simulate_{split}.tsv")
+    wildcard_constraints:
+        rep=REPLICATE_PATTERN,  # a noisy training set is made from the clean one (beyond.smk)
     conda:
         ENV
     threads: 1

@@ -14,6 +14,7 @@ figure = plot_rolling_forecast(
     test[test["trajectory"] == trajectory],
     forecasts[forecasts["trajectory"] == trajectory],
     snakemake.params.types,
+    physics=snakemake.params.physics,
     physics_liquidus=snakemake.params.liquidus,
 )
 save(figure, snakemake.output.png, snakemake.output.pdf)

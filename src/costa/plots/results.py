@@ -14,7 +14,7 @@ from .style import TRUTH_COLOR, model_color, model_label
 
 
 def _order(metrics: pd.DataFrame) -> tuple[list[str], list[str]]:
-    known = ["ddm_dense", "ddm_sparse", "costa_dense", "costa_sparse", "pbm"]
+    known = ["ddm_dense", "ddm_sparse", "costa_dense", "costa_sparse", "costa_bounded", "costa_smooth", "pbm", "discovered"]
     present = list(dict.fromkeys(metrics["model_type"]))
     types = [t for t in known if t in present] + [t for t in present if t not in known]
     return types, list(dict.fromkeys(metrics["window"]))
@@ -68,14 +68,15 @@ def plot_rolling_forecast(
     truth: pd.DataFrame,
     forecasts: pd.DataFrame,
     types: Sequence[str],
-    physics: str = "pbm",
+    physics: Sequence[str] = ("pbm",),
     physics_liquidus: float | None = 968.0,
 ) -> plt.Figure:
     """14 panels over time [h]: x1..x8, g1 and u1..u5 of one test trajectory.
 
     ``truth`` is the trajectory's rows of the test table; ``forecasts`` holds the
     saved forecasts of ``types`` (mean and mean +- 3 std over instances, the paper's
-    99.7 % band) and of the ``physics`` model (one line).
+    99.7 % band) and of the ``physics`` models (one line each; the first is the
+    PBM whose constant liquidus temperature is drawn).
     """
     hours = truth["time_s"].to_numpy() / 3600
     fig, axes = plt.subplots(5, 3, figsize=(15, 17), sharex=True)
@@ -87,7 +88,7 @@ def plot_rolling_forecast(
             _draw_forecasts(ax, hours, forecasts, name, types, physics, truth[name].to_numpy())
     g1_axis = axes.flat[panels.index("g1")]
     if physics_liquidus is not None:
-        g1_axis.axhline(physics_liquidus, color=model_color(physics), ls="--", lw=1.2)
+        g1_axis.axhline(physics_liquidus, color=model_color(physics[0]), ls="--", lw=1.2)
     axes.flat[-1].set_visible(False)
     for ax in axes[-1][:2]:
         ax.set_xlabel("time [h]")
@@ -110,9 +111,10 @@ def _draw_forecasts(ax, hours, forecasts, name, types, physics, truth_values) ->
         ax.fill_between(
             hours, mean - spread, mean + spread, color=color, alpha=0.25, lw=0, label=f"{model_label(model)} 99.7 %"
         )
-    pbm = forecasts[forecasts["model_type"] == physics].sort_values("step")
-    if not pbm.empty:
-        ax.plot(hours, pbm[name].to_numpy(), color=model_color(physics), ls="--", lw=1.1, label=model_label(physics))
+    for model in physics:
+        line = forecasts[forecasts["model_type"] == model].sort_values("step")
+        if not line.empty:
+            ax.plot(hours, line[name].to_numpy(), color=model_color(model), ls="--", lw=1.1, label=model_label(model))
     low, high = np.nanmin(truth_values), np.nanmax(truth_values)
     margin = max(0.5 * (high - low), 1e-3 * max(abs(high), 1.0))
     ax.set_ylim(low - margin, high + margin)  # a blown-up instance must not hide the others

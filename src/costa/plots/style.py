@@ -16,6 +16,10 @@ MODEL_COLORS = {
     "costa_dense": "#2ca02c",
     "costa_sparse": "#ff7f0e",
     "pbm": "#d62728",
+    # beyond the paper (config/beyond.yaml)
+    "costa_bounded": "#8c564b",
+    "costa_smooth": "#17becf",
+    "discovered": "#e377c2",
 }
 MODEL_LABELS = {
     "ddm_dense": "DDM dense",
@@ -23,6 +27,9 @@ MODEL_LABELS = {
     "costa_dense": "CoSTA dense",
     "costa_sparse": "CoSTA sparse",
     "pbm": "PBM (ablated)",
+    "costa_bounded": "CoSTA bounded",
+    "costa_smooth": "CoSTA smoothed targets",
+    "discovered": "discovered (PBM + found law)",
 }
 TRAIN_COLOR = "#1f77b4"
 TEST_COLOR = "#ff7f0e"
