@@ -8,7 +8,6 @@ import sys
 
 import nbformat
 import pandas as pd
-import pytest
 from conftest import REPOSITORY, snakemake
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake", "--snakefile", str(REPOSITORY / "Snakefile")]
