@@ -11,6 +11,8 @@ How each is covered:
   a fresh copy with a CSV made from simulated smoke data; Snakemake's report runs here; the five-replicate config runs here as a dry run (tests/test_workflow.py
   runs two replicates end to end), and so do the sensor sets; the worked own-cell example
   (its own small config) runs in tests/test_own_data.py; the cell-constants table runs here;
+  the beyond config runs here as a dry run (tests/test_workflow.py runs its DAG at smoke size),
+  and the bound variants on the smoke run's trained models;
 - the commands after a crash run in tests/test_resume.py, the cluster command in
   tests/test_slurm.py;
 - the training benchmark runs here with 2 timed batches per variant (as written under
@@ -105,6 +107,20 @@ def check_sensors_dry_run(command, smoke_run, tmp_path):
     assert "collect_sensors" in result.stdout and "results/smoke/discovery/sensors.csv" in result.stdout
 
 
+def check_beyond_dry_run(command, smoke_run, tmp_path):
+    result = run_command(smoke_run, f"{on_smoke(command)} --dry-run")
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert "rollout_discovered" in result.stdout and "results/smoke/beyond/" in result.stdout
+
+
+def check_bound_variants(command, smoke_run, tmp_path):
+    """On the smoke run's trained models (its only replicate stands in for replicate 1)."""
+    smoke = command.replace('--reps "" replicates/r1/', '--reps ""')
+    config = f"{REPOSITORY / 'config/config.yaml'} {REPOSITORY / 'config/smoke.yaml'}"
+    result = run_command(smoke_run, f"{smoke} --results results/smoke --config {config}", timeout=600)
+    assert result.returncode == 0, result.stderr[-4000:]
+
+
 def check_worked_example(command, smoke_run, tmp_path):
     """The example's own small config (not the smoke one) runs in tests/test_own_data.py."""
     assert command in (REPOSITORY / "tests/test_own_data.py").read_text()
@@ -162,6 +178,9 @@ CHECKS = {
         check_worked_example,
     "python -m costa.cell_constants my.yaml": check_cell_constants,
     "snakemake --cores 2 results/discovery/sensors.csv --configfile config/sensors.yaml": check_sensors_dry_run,
+    "snakemake --cores 2 --configfile config/beyond.yaml": check_beyond_dry_run,
+    "python benchmarks/bound_variants.py": check_bound_variants,
+    'python benchmarks/bound_variants.py --reps "" replicates/r1/': check_bound_variants,
     "snakemake --report results/snakemake_report.html": check_report,
     "python benchmarks/train_speed.py": check_benchmark,
     "pytest -m slow": check_slow_suite_is_collected,
