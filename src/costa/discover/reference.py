@@ -16,13 +16,12 @@ from ..physics import CellModel
 from ..train import ModelType, TrainingSettings, train_ensemble, training_data
 from .gap import gap_tables
 
-__all__ = ["costa_reference"]
+__all__ = ["costa_reference", "train_costa"]
 
 
-def costa_reference(
-    config: Mapping, train: pd.DataFrame, held_out: pd.DataFrame, start: CellModel, name: str
-) -> pd.DataFrame:
-    """Train a small CoSTA ensemble on ``train`` with ``start`` as its physics; its gap on ``held_out``."""
+def train_costa(config: Mapping, x: np.ndarray, u: np.ndarray, dt: float, start: CellModel, name: str) -> NetworkModel:
+    """A small CoSTA ensemble (``discovery.costa_reference``'s size) with ``start`` as its physics,
+    trained on trajectories x (n, K, 8), u (n, K, 5) as published (forward-difference targets)."""
     reference = config["discovery"]["costa_reference"]
     training = {
         **config["training"],
@@ -31,9 +30,6 @@ def costa_reference(
         "compile": False,
     }
     settings = TrainingSettings.from_config(training)
-    x, u = arrays(train)
-    xh, uh = arrays(held_out)
-    dt = float(np.diff(train["time_s"].to_numpy()[:2])[0])
     data = training_data(x, u, dt, "costa", start)
     model_type = ModelType("costa_reference", "costa", 0.0)
     init = [
@@ -41,7 +37,17 @@ def costa_reference(
     ]
     shuffle = seeds.torch_generator(config["seed"], 0, f"discovery/{name}/costa/shuffle")
     ensemble, _ = train_ensemble(data, model_type, settings, init, shuffle)
-    network = NetworkModel(model_type, ensemble, data.normalisation, start, {})
+    return NetworkModel(model_type, ensemble, data.normalisation, start, {})
+
+
+def costa_reference(
+    config: Mapping, train: pd.DataFrame, held_out: pd.DataFrame, start: CellModel, name: str
+) -> pd.DataFrame:
+    """Train a small CoSTA ensemble on ``train`` with ``start`` as its physics; its gap on ``held_out``."""
+    x, u = arrays(train)
+    xh, uh = arrays(held_out)
+    dt = float(np.diff(train["time_s"].to_numpy()[:2])[0])
+    network = train_costa(config, x, u, dt, start, name)
     forecasts = rollout_networks(network, xh, uh, dt, config["evaluation"]["copied_samples"]["networks"])
     evaluation = EvaluationSettings.from_config(config["evaluation"])
     gap, _ = gap_tables({"CoSTA reference": forecasts}, xh, uh, dt, state_scale(x), evaluation)
