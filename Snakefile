@@ -31,6 +31,7 @@ include: "workflow/rules/evaluate.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/discover.smk"
 include: "workflow/rules/replicates.smk"
+include: "workflow/rules/peers.smk"
 include: "workflow/rules/report.smk"
 
 

@@ -65,9 +65,20 @@ def check_consistency(config: Mapping[str, Any]) -> None:
         raise ConfigError(
             f"discovery.user_data.name {user['name']!r} is also a shipped case in discovery.cases; choose another name"
         )
+    _check_peers(config)
     copied = evaluation["copied_samples"]
     if max(copied.values()) >= steps:
         raise ConfigError(f"evaluation.copied_samples {copied} must be below simulation.steps = {steps}")
+
+
+def _check_peers(config: Mapping[str, Any]) -> None:
+    from .discover.unshipped import find_case
+
+    for name in config.get("peers", {}).get("cases") or []:
+        try:
+            find_case(name)
+        except ValueError as error:
+            raise ConfigError(f"peers.cases: {error}") from None
 
 
 def load_config(*paths: str | Path, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:

@@ -16,9 +16,10 @@ from ..metrics import EvaluationSettings, state_scale
 from ..physics import CellModel, model_from_config
 from ..simulate import SimulationSettings, simulate_set
 from ..variables import INPUTS
-from .cases import CASES, HiddenEffectCase, add_noise
+from .cases import HiddenEffectCase, add_noise
 from .gap import gap_tables, noise_floor
 from .search import DiscoverySettings, Round, discover
+from .unshipped import find_case
 from .weak_form import estimate_noise
 
 __all__ = ["DiscoveryData", "DiscoveryResult", "case_tables", "run_discovery", "split_held_out", "starting_model"]
@@ -56,8 +57,8 @@ def starting_model(config: Mapping, name: str) -> CellModel:
 
 
 def case_tables(config: Mapping, case: str | HiddenEffectCase) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Noisy training and held-out tables of a case (a shipped one by name), simulated with its true model."""
-    case = CASES[case] if isinstance(case, str) else case
+    """Noisy training and held-out tables of a case (a shipped or unshipped one by name), simulated with its true model."""
+    case = find_case(case) if isinstance(case, str) else case
     discovery = config["discovery"]
     settings = SimulationSettings.from_config(config["simulation"])
     true, _ = case.models(model_from_config(config["physics"])[0])
