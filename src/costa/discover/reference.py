@@ -13,15 +13,15 @@ from ..forecast import rollout_networks
 from ..metrics import EvaluationSettings, state_scale
 from ..models import NetworkModel
 from ..physics import CellModel
-from ..train import ModelType, TrainingSettings, train_ensemble, training_data
+from ..train import ModelType, TrainingData, TrainingSettings, train_ensemble, training_data
 from .gap import gap_tables
 
 __all__ = ["costa_reference", "train_costa"]
 
 
-def train_costa(config: Mapping, x: np.ndarray, u: np.ndarray, dt: float, start: CellModel, name: str) -> NetworkModel:
+def train_costa(config: Mapping, data: TrainingData, start: CellModel, name: str) -> NetworkModel:
     """A small CoSTA ensemble (``discovery.costa_reference``'s size) with ``start`` as its physics,
-    trained on trajectories x (n, K, 8), u (n, K, 5) as published (forward-difference targets)."""
+    trained on ``data`` (:func:`costa.train.training_data`: forward-difference targets, as published)."""
     reference = config["discovery"]["costa_reference"]
     training = {
         **config["training"],
@@ -30,7 +30,6 @@ def train_costa(config: Mapping, x: np.ndarray, u: np.ndarray, dt: float, start:
         "compile": False,
     }
     settings = TrainingSettings.from_config(training)
-    data = training_data(x, u, dt, "costa", start)
     model_type = ModelType("costa_reference", "costa", 0.0)
     init = [
         seeds.torch_generator(config["seed"], 0, f"discovery/{name}/costa/init", i) for i in range(settings.instances)
@@ -47,7 +46,7 @@ def costa_reference(
     x, u = arrays(train)
     xh, uh = arrays(held_out)
     dt = float(np.diff(train["time_s"].to_numpy()[:2])[0])
-    network = train_costa(config, x, u, dt, start, name)
+    network = train_costa(config, training_data(x, u, dt, "costa", start), start, name)
     forecasts = rollout_networks(network, xh, uh, dt, config["evaluation"]["copied_samples"]["networks"])
     evaluation = EvaluationSettings.from_config(config["evaluation"])
     gap, _ = gap_tables({"CoSTA reference": forecasts}, xh, uh, dt, state_scale(x), evaluation)

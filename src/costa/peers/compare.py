@@ -57,7 +57,7 @@ def compare_case(
     peers = {
         "PySINDy": pysindy_peer(start, x, u, dt, scale, evaluation, settings),
         "UDE (CoSTA + PySINDy)": ude_peer(
-            lambda: train_costa(config, x, u, dt, start, name), start, x, u, dt, scale, evaluation, settings
+            lambda data: train_costa(config, data, start, name), start, x, u, dt, scale, evaluation, settings
         ),
     }
     models = {"starting model": start, **{method: result.corrected for method, result in peers.items()}}

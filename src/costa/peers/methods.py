@@ -8,9 +8,10 @@
   carry the one-step feed impulses that the smoothed derivative spreads, and the
   regression then fits the impulses' mismatch rather than the missing physics.
 - **The UDE recipe** (Rackauckas et al. 2020): a CoSTA network learns the missing rate
-  inside the starting model (this project's training, the CoSTA reference's recipe and
-  seeds), then PySINDy's STLSQ (and ensemble) turns the network's output at the
-  training states into a formula.
+  inside the starting model (this project's training, the CoSTA reference's size and
+  seeds, on the residual of one solver step: :func:`solver_step_targets`), then
+  PySINDy's STLSQ (and ensemble) turns the network's output at the training states
+  into a formula.
 
 Each peer's hyper-parameters (PySINDy: the threshold and the smoothing window; UDE:
 the threshold) are chosen on the training data only: the last quarter of the training
@@ -33,8 +34,10 @@ import torch
 from scipy.signal import savgol_filter
 
 from ..forecast import rollout_physics
+from ..integrate import rk4_step
 from ..metrics import EvaluationSettings, per_step_error, window_metrics
 from ..physics import CellModel
+from ..train import TrainingData, training_data
 from .sparse import SparseFit, design, fit_sparse
 
 __all__ = ["PeerResult", "PeerSettings", "pysindy_peer", "ude_peer", "network_correction"]
@@ -179,6 +182,20 @@ def pysindy_peer(
     return _choose(start, problems, x, u, dt, scale, evaluation, settings, "pysindy")
 
 
+def solver_step_targets(data: TrainingData, start: CellModel, x: np.ndarray, u: np.ndarray, dt: float) -> TrainingData:
+    """``data`` with the UDE's targets: the rate each measured step lacks after one RK4 step of
+    the starting model, (x_{k+1} - Phi(x_k, u_k)) / dt, standardised like CoSTA's.
+
+    The UDE recipe fits the network through the solver; against one solver step the network
+    learns the missing rate, whereas forward differences minus f (CoSTA as published) also
+    teach it the gap between a forward-Euler and an RK4 step, which an RK4 rollout of the
+    sparse formula would then count twice."""
+    with np.errstate(all="ignore"):
+        step = rk4_step(start.rhs, x[:, :-1], u[:, :-1], dt)
+    missing = ((x[:, 1:] - step) / dt).reshape(-1, 8) / data.normalisation.rate_std
+    return TrainingData(data.inputs, torch.from_numpy(missing.astype(np.float32)), data.normalisation)
+
+
 @torch.inference_mode()
 def network_correction(network, x: np.ndarray, u: np.ndarray, chunk: int = 65536) -> np.ndarray:
     """The mean over instances of a CoSTA network's correction of the state rates (..., 8)."""
@@ -194,7 +211,7 @@ def network_correction(network, x: np.ndarray, u: np.ndarray, chunk: int = 65536
 
 
 def ude_peer(
-    train_network: Callable[[], object],
+    train_network: Callable[[TrainingData], object],
     start: CellModel,
     x: np.ndarray,
     u: np.ndarray,
@@ -203,10 +220,11 @@ def ude_peer(
     evaluation: EvaluationSettings,
     settings: PeerSettings,
 ) -> PeerResult:
-    """A CoSTA network with the starting model as physics (``train_network()``), then PySINDy's
-    sparse regression of its correction at the training states; the threshold chosen on the training data."""
+    """A CoSTA network with the starting model as physics (``train_network(data)``) trained on
+    :func:`solver_step_targets`, then PySINDy's sparse regression of its correction at the training
+    states; the threshold chosen on the training data."""
     started = time.perf_counter()
-    network = train_network()
+    network = train_network(solver_step_targets(training_data(x, u, dt, "costa", start), start, x, u, dt))
     trained = time.perf_counter() - started
     xs, us = x[:, :: settings.stride], u[:, :: settings.stride]
     with np.errstate(all="ignore"):
