@@ -132,7 +132,9 @@ def score(
     return {
         "case": case,
         "method": method,
-        "named": " then ".join(answer["named"]) if answer["named"] else (DASH if answer["named"] is None else "nothing"),
+        "named": " then ".join(answer["named"])
+        if answer["named"]
+        else (DASH if answer["named"] is None else "nothing"),
         "equations_changed": " ".join(changed) or "none",
         "true_equations": " ".join(true_equations) or "none",
         "right_variables": right,

@@ -106,7 +106,7 @@ def fit_sparse(designs: np.ndarray, targets: np.ndarray, threshold: float, ensem
     """
     coefficients = np.zeros((8, designs.shape[-1]))
     inclusion = np.zeros_like(coefficients)
-    np.random.seed(seed % 2**32)
+    np.random.seed(seed % 2**32)  # noqa: NPY002 (PySINDy bags with numpy's global generator)
     for i in range(8):
         x, y = designs[:, i], targets[:, i]
         finite = np.isfinite(x).all(1) & np.isfinite(y)
