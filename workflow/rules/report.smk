@@ -27,6 +27,7 @@ rule report:
         replicate_aggregate=across_replicates(out("replicates/aggregate.csv")),
         replicate_claims=across_replicates(out("replicates/claims.csv")),
         replicate_blowups=across_replicates(out("replicates/blowups.png")),
+        peers_summary=[out("peers/summary.csv")] if config["peers"]["in_report"] else [],
         code=package_files("report.py", "paper.py", "plots"),
     output:
         html=f"{REPORT}/report.html",
