@@ -8,9 +8,8 @@ coefficients are in physical units and the correction is a flow like ours.
 The library (:func:`costa.discover.library.feature_library`, the flow library our
 discovery starts from) is evaluated once to a matrix and handed to the optimizer, so
 that the comparison is about the method, not the library.  Features and targets are
-standardised before the regression (each column by its standard deviation; the
-constant by 1), so that one threshold serves all eight balances; coefficients are
-reported in physical units.  The correction goes back as one
+scaled by their standard deviations before the regression, so that one threshold
+serves all eight balances; coefficients are reported in physical units.  The correction goes back as one
 :class:`~costa.physics.BalanceTerm` per balance: an ordinary :class:`CellModel`.
 """
 
@@ -98,7 +97,9 @@ class _SharedTerms:
 
 def fit_sparse(designs: np.ndarray, targets: np.ndarray, threshold: float, ensemble: int, seed: int) -> SparseFit:
     """STLSQ per balance: the state-i rate correction targets (N, 8) on that state's library
-    designs (N, 8, P) (the terms times the balance's rate per flow), both standardised.
+    designs (N, 8, P) (the terms times the balance's rate per flow), each column scaled by its
+    standard deviation, so that a term is kept when its variation moves the target by at least
+    ``threshold`` times the target's standard deviation.
 
     ``ensemble`` > 1: PySINDy's bagging ensemble of that many fits on N samples drawn with
     replacement; its median is the fit and the share of fits that keep a term its inclusion
@@ -113,7 +114,9 @@ def fit_sparse(designs: np.ndarray, targets: np.ndarray, threshold: float, ensem
         x, y = x[finite], y[finite]
         feature_scale = x.std(axis=0)
         feature_scale = np.where(feature_scale > 0, feature_scale, np.abs(x).max(axis=0, initial=0) + 1e-300)
-        target_scale = y.std() if y.std() > 0 else 1.0
+        # a target that is essentially constant (a network's smooth output can be) is not scaled
+        # up until its rounding wiggles pass the threshold
+        target_scale = max(float(y.std()), 1e-3 * float(np.sqrt(np.mean(y**2)))) or 1.0
         stlsq = ps.STLSQ(threshold=threshold)
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", "Sparsity parameter is too big", UserWarning)
