@@ -16,6 +16,9 @@
 # replicates *A novel corrective-source term approach to modeling unknown physics in
 # aluminum extraction process* (Robinson, Lundby, Rasheed, Gravdahl; arXiv:2209.10861)
 # as the authors' published code ran it, and sets our numbers beside the paper's.
+# Every symbol and term (x1..x8, g1, k0..k18, AN-RFMSE, blow-up, chi2/dof, noise
+# floor ...) is explained in the repository's `docs/glossary.md`; every output file
+# with its columns in `results/README.md`.
 
 # %% tags=["parameters"]
 inputs: dict = {}  # paths of everything the report reads (set by the workflow)
@@ -171,7 +174,6 @@ display(pd.concat([runs, ours.to_frame().T]).rename(columns=model_label))
 
 # %%
 claims = pd.read_csv(inputs["claims"]).fillna("")
-claims["verdict"] = claims.holds.map({True: "reproduced", False: "not reproduced"})
 show(claims[["claim", "verdict", "evidence", "likely_reason"]])
 
 # %% [markdown]

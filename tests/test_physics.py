@@ -232,6 +232,11 @@ def test_printed_variant_reads_the_alumina_feed_in_g3_and_drops_k9(rng):
         ("fusion_enthalpy", "cryolite_fusion_enthalpy"),
         ("liquid_cryolite_heat_capacity", "liquid_cryolite_heat_capacity"),
         ("solid_cryolite_heat_capacity", "solid_cryolite_heat_capacity"),
+        ("ledge_area", "ledge_area"),
+        ("ledge_density", "ledge_density"),
+        ("bath_heat_capacity", "bath_heat_capacity"),
+        ("ledge_heat_capacity", "ledge_heat_capacity"),
+        ("wall_heat_capacity", "wall_heat_capacity"),
     ],
 )
 def test_property_corrections_equal_rederiving_the_constants(model, rng, prop, material_field):
@@ -260,3 +265,90 @@ def test_a_property_may_vary_with_the_state(model, rng):
     )
     np.testing.assert_array_equal(varying.rhs(x, u)[:, :5], model.rhs(x, u)[:, :5])
     assert "bath_heat_capacity x (1 + 0.01 (x6 - 970))" in varying.describe()
+
+
+#: The constants of the authors' code (its literals and its derivation), as the code computes them.
+AUTHORS_CODE_CONSTANTS = {
+    "k0": 2e-05,
+    "k1": 0.0007498221682915604,
+    "k2": 0.1799573203899745,
+    "k3": 1.7e-07,
+    "k4": 0.02,
+    "k5": 0.03,
+    "k6": 4.43e-08,
+    "k7": 338.49971965354206,
+    "k8": 1.4104154985564252,
+    "k9": 17.92,
+    "k10": 0.0008333333333333334,
+    "k11": 0.2,
+    "k12": 237.54366291476634,
+    "k13": 0.9897652621448597,
+    "k14": 0.007692307692307693,
+    "k15": 0.2,
+    "k16": 35.0,
+    "k17": 6e-07,
+    "k18": 0.04,
+    "alpha": 0.000566,
+    "beta": 0.000758,
+    "critical_alumina_percent": 2.2,
+}
+
+
+def test_the_default_cell_gives_the_authors_constants_bit_for_bit():
+    from costa.config import load_config
+    from costa.physics import model_from_config
+
+    assert authors_code_parameters().as_dict() == AUTHORS_CODE_CONSTANTS
+    assert model_from_config(load_config()["physics"])[0].params.as_dict() == AUTHORS_CODE_CONSTANTS
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "changed"),
+    [
+        ("wall_conductivity", 13.0, {"k14": 0.1 / (2 * 13.0)}),
+        ("ledge_conductivity", 3.0, {"k1": None, "k8": None, "k13": None, "k11": 1 / 6.0, "k15": 1 / 6.0}),
+        ("ledge_area", 20.0, {n: None for n in ("k0", "k1", "k2", "k7", "k8", "k12", "k13")} | {"k9": 20.0}),
+        ("ambient_temperature", 20.0, {"k16": 20.0}),
+        ("wall_heat_capacity", 2.0e6, {"k17": 5e-7}),
+        ("bath_heat_capacity", 2000.0, {"alpha": 5e-4}),
+    ],
+)
+def test_a_cell_property_changes_exactly_the_constants_it_enters(field, value, changed):
+    """A property set in physics.cell changes the constants its derivation names, and no other."""
+    from costa.config import load_config
+    from costa.physics import model_from_config
+
+    params = model_from_config(load_config(overrides={"physics": {"cell": {field: value}}})["physics"])[0].params
+    differ = {k for k, v in params.as_dict().items() if v != AUTHORS_CODE_CONSTANTS[k]}
+    assert differ == set(changed)
+    for name, expected in changed.items():
+        if expected is not None:
+            assert getattr(params, name) == pytest.approx(expected, rel=1e-15)
+
+
+def test_a_changed_ledge_conductivity_rescales_its_constants_by_the_derivation():
+    from costa.physics import MaterialProperties
+
+    base, changed = authors_code_parameters(), authors_code_parameters(MaterialProperties(ledge_conductivity=5.0))
+    for name, exponent in {"k1": 1, "k8": 1, "k13": 1, "k11": -1, "k15": -1}.items():
+        assert getattr(changed, name) == pytest.approx(getattr(base, name) * 2.0**exponent, rel=1e-14)
+
+
+def test_overrides_win_over_the_cell_and_the_table_says_where_each_constant_comes_from():
+    from costa.config import load_config
+    from costa.physics import constants_table
+
+    physics = load_config(overrides={"physics": {"cell": {"ledge_area": 20.0}, "overrides": {"k9": 18.0}}})["physics"]
+    table = constants_table(physics).set_index("constant")
+    assert table.loc["k9", ["value", "source"]].tolist() == [18.0, "override"]
+    assert table.loc["k0", "value"] == pytest.approx(1 / (2790.178571428571 * 20.0), rel=1e-15)
+    assert table.loc["k0", "source"] == "1 / (ledge_density ledge_area)"
+    assert table.loc["k3", "source"] == "fixed"
+    assert table.loc["k14", "unit"] == "m^2 K/W"
+
+
+def test_the_printed_table_cannot_take_a_cell():
+    from costa.config import ConfigError, load_config
+
+    with pytest.raises(ConfigError, match="physics.cell sets material data, but physics.constants = paper_printed"):
+        load_config(overrides={"physics": {"constants": "paper_printed", "cell": {"ledge_area": 20.0}}})

@@ -58,7 +58,7 @@ def test_report_is_rendered_without_errors(smoke_run):
     outputs = [o for cell in notebook.cells if cell.cell_type == "code" for o in cell.outputs]
     assert not [o for o in outputs if o.output_type == "error"]
     html = (smoke_run / "results/smoke/report/report.html").read_text()
-    assert "reproduced" in html and "Provenance" in html and html.count("<img") >= 5
+    assert "not assessed at this size" in html and "Provenance" in html and html.count("<img") >= 5
     assert "Robustness across replicates" in html and "from a single run" in html
 
 

@@ -4,20 +4,49 @@ Each check returns whether the claim holds, the effect size it rests on, and a
 sentence of evidence.  Thresholds for the paper's words are stated here once:
 "sharply" = at most half, "about half" = at most 0.6 of the comparison.  All
 checks use the coded metric (the one the paper's figures were made with).
+
+The claims are about blow-ups out of 1000 rollouts of 5000 steps: a smaller run
+(the smoke config, say) cannot assess them, and its verdicts say so
+(:func:`below_paper_size`) instead of "not reproduced".
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-__all__ = ["CLAIMS", "Claim", "LIKELY_REASON", "evaluate_claims"]
+__all__ = ["CLAIMS", "NOT_ASSESSED", "PAPER_SIZE", "Claim", "LIKELY_REASON", "below_paper_size", "evaluate_claims"]
 
 SHARPLY = 0.5
 ABOUT_HALF = 0.6
+
+#: The paper's experiment: (section, key) -> the size its claims were made at.
+PAPER_SIZE = {
+    ("simulation", "steps"): 5000,
+    ("simulation", "train_trajectories"): 40,
+    ("simulation", "test_trajectories"): 100,
+    ("training", "instances"): 10,
+    ("training", "epochs"): 100,
+}
+PAPER_WINDOWS = {"short": [0, 100], "medium": [100, 2500], "long": [2500, 5000]}
+NOT_ASSESSED = "not assessed at this size"
+
+
+def below_paper_size(config: Mapping[str, Any]) -> str:
+    """What makes a run smaller than the paper's experiment ("" if nothing does)."""
+    smaller = [
+        f"{section}.{key} = {config[section][key]} (paper {size})"
+        for (section, key), size in PAPER_SIZE.items()
+        if config[section][key] < size
+    ]
+    windows = {name: list(bounds) for name, bounds in config["evaluation"]["windows"].items()}
+    if windows != PAPER_WINDOWS:
+        smaller.append(f"evaluation.windows = {windows} (paper {PAPER_WINDOWS})")
+    return "; ".join(smaller)
 
 
 @dataclass(frozen=True)
@@ -131,11 +160,20 @@ LIKELY_REASON = {
 }
 
 
-def evaluate_claims(summary: pd.DataFrame) -> pd.DataFrame:
-    """One row per claim: key, claim, holds, effect, evidence, and the likely reason where it fails."""
+def evaluate_claims(summary: pd.DataFrame, below_size: str = "") -> pd.DataFrame:
+    """One row per claim: key, claim, holds, effect, evidence, verdict, and the likely reason where it fails.
+
+    ``verdict`` is "reproduced" or "not reproduced", or :data:`NOT_ASSESSED` for a run
+    smaller than the paper's (``below_size``, from :func:`below_paper_size`, says how;
+    it then stands in the likely-reason column).  ``holds`` is computed either way.
+    """
     rows = []
     for claim in CLAIMS:
         holds, effect, evidence = claim.check(summary)
+        if below_size:
+            verdict, reason = NOT_ASSESSED, f"the run is smaller than the paper's: {below_size}"
+        else:
+            verdict, reason = ("reproduced", "") if holds else ("not reproduced", LIKELY_REASON[claim.key])
         rows.append(
             {
                 "key": claim.key,
@@ -143,7 +181,8 @@ def evaluate_claims(summary: pd.DataFrame) -> pd.DataFrame:
                 "holds": bool(holds),
                 "effect": float(effect),
                 "evidence": evidence,
-                "likely_reason": "" if holds else LIKELY_REASON[claim.key],
+                "verdict": verdict,
+                "likely_reason": reason,
             }
         )
     return pd.DataFrame(rows)

@@ -60,15 +60,39 @@ def check_consistency(config: Mapping[str, Any]) -> None:
     unknown = sorted(set(figures["rolling_forecast_types"]) - set(config["training"]["model_types"]))
     if unknown:
         raise ConfigError(f"figures.rolling_forecast_types {unknown} are not in training.model_types")
+    unknown_sets = sorted(set(config["discovery"]["sensors"]) - set(config["discovery"]["sensor_sets"]))
+    if unknown_sets:
+        raise ConfigError(
+            f"discovery.sensors {unknown_sets} are not in discovery.sensor_sets {sorted(config['discovery']['sensor_sets'])}"
+        )
     user = config["discovery"]["user_data"]
     if user and user["name"] in config["discovery"]["cases"]:
         raise ConfigError(
             f"discovery.user_data.name {user['name']!r} is also a shipped case in discovery.cases; choose another name"
         )
+    _check_cell(config["physics"])
+    _check_gap_windows(user)
     _check_peers(config)
     copied = evaluation["copied_samples"]
     if max(copied.values()) >= steps:
         raise ConfigError(f"evaluation.copied_samples {copied} must be below simulation.steps = {steps}")
+
+
+def _check_cell(physics: Mapping[str, Any]) -> None:
+    from .physics import parameters_from_config
+
+    try:
+        parameters_from_config(physics["constants"], physics["overrides"], physics["cell"])
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
+
+
+def _check_gap_windows(user: Mapping[str, Any] | None) -> None:
+    for name, (low, high) in ((user or {}).get("gap_windows") or {}).items():
+        if not low < high:
+            raise ConfigError(
+                f"discovery.user_data.gap_windows.{name} = [{low}, {high}): the start must be below the stop"
+            )
 
 
 def _check_peers(config: Mapping[str, Any]) -> None:

@@ -1,17 +1,32 @@
 """The tidy trajectory table: one row per trajectory and step.
 
-Columns: ``trajectory, step, time_s, x1..x8, u1..u5`` and, for simulated data,
-the true liquidus temperature ``g1`` and cell voltage ``U_cell``.  Units are
-stored as Parquet field metadata.  :func:`load_trajectories` reads any such table
-(Parquet or CSV, simulated or measured) and checks it, raising one
-:class:`TrajectoryDataError` that names the file, column and row of the first
-problem (rows counted from 0, a CSV header excluded).
+The data contract (``docs/own-data.md`` explains it for users):
+
+- ``trajectory``, ``time_s`` and the inputs ``u1..u5`` at every step: the inputs are
+  logged commands and never missing; ``time_s`` strictly increases with a uniform
+  step within each trajectory, and a trajectory's rows are contiguous.  ``step`` is
+  optional (derived from the row order).
+- the measurement channels, each optional: the states ``x1..x8`` and the outputs
+  ``U_cell`` (cell voltage, V), ``c2`` and ``c3`` (the bath's Al2O3 and AlF3 mass
+  fractions).  NaN (an empty CSV field) marks a step where a channel was not
+  sampled; a column that is absent, or has no value at all, is unmeasured.  At
+  least one channel must be measured; masses must be positive where present.
+- simulated tables also carry ``g1``, the true liquidus temperature, for reference.
+
+:func:`load_trajectories` reads such a table (Parquet or CSV) and checks it,
+raising one :class:`TrajectoryDataError` that names the file, column and row of
+the first problem (rows counted from 0, a CSV header excluded).  It keeps absent
+channels absent.  :func:`channel_report` says what was measured how often;
+:func:`measured_trajectories` stacks the measured channels with their NaN, and
+:func:`arrays` the full states of a table that has every state at every step.
+Units are stored as Parquet field metadata by :func:`write_trajectories`.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -19,19 +34,27 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from .variables import DERIVED, INPUTS, MASS_STATES, MEANING, STATES, UNIT
+from .variables import AUXILIARY, CHANNELS, INPUTS, MASS_STATES, MEANING, STATES, UNIT
 
 __all__ = [
+    "CHANNELS",
     "REQUIRED_COLUMNS",
+    "MeasuredTrajectories",
     "TrajectoryDataError",
     "arrays",
+    "channel_report",
+    "format_channel_report",
+    "incomplete_states",
     "load_trajectories",
+    "measured_channels",
+    "measured_trajectories",
+    "time_step",
     "to_table",
     "write_trajectories",
 ]
 
 KEY_COLUMNS = ("trajectory", "step", "time_s")
-REQUIRED_COLUMNS = ("trajectory", "time_s", *STATES, *INPUTS)
+REQUIRED_COLUMNS = ("trajectory", "time_s", *INPUTS)
 
 
 class TrajectoryDataError(ValueError):
@@ -62,58 +85,232 @@ def write_trajectories(table: pd.DataFrame, path: str | Path, provenance: Mappin
     pq.write_table(pa.Table.from_pandas(table, schema=schema, preserve_index=False), path)
 
 
+def load_trajectories(path: str | Path) -> pd.DataFrame:
+    """Read and check a trajectory table from Parquet or CSV (the contract in the module docstring).
+
+    Checks, in order: the file exists and parses; ``trajectory``, ``time_s`` and
+    ``u1..u5`` are there; the known columns are numeric; keys and inputs have a
+    finite value in every row; channels are finite where sampled; at least one
+    channel is measured; time strictly increases with a uniform step within each
+    trajectory; masses are positive where sampled.  A missing ``step`` column is
+    derived from the row order.  Raises :class:`TrajectoryDataError`.
+    """
+    path = Path(path)
+    table = _read(path)
+    _check_required_columns(path, table)
+    known = [c for c in (*KEY_COLUMNS, *INPUTS, *CHANNELS, *AUXILIARY) if c in table.columns]
+    _check_numeric(path, table, known)
+    _check_every_row(path, table, [c for c in (*KEY_COLUMNS, *INPUTS) if c in table.columns])
+    _check_finite_where_sampled(path, table, [c for c in (*CHANNELS, *AUXILIARY) if c in table.columns])
+    _check_some_channel(path, table)
+    _check_time(path, table)
+    _check_positive_masses(path, table)
+    if "step" not in table.columns:
+        table.insert(1, "step", table.groupby("trajectory", sort=False).cumcount().astype(np.int32))
+    return table
+
+
+def measured_channels(table: pd.DataFrame) -> tuple[str, ...]:
+    """The channels (states, then outputs, in the order of ``CHANNELS``) with at least one sample."""
+    return tuple(c for c in CHANNELS if c in table.columns and table[c].notna().any())
+
+
+def time_step(table: pd.DataFrame) -> float:
+    """The uniform sampling step dt [s] of a checked table."""
+    first = table["trajectory"].to_numpy()
+    same = np.flatnonzero(first[1:] == first[:-1])
+    if same.size == 0:
+        raise TrajectoryDataError("every trajectory has a single row; a time step needs two samples")
+    time = table["time_s"].to_numpy(dtype=np.float64)
+    return float(time[same[0] + 1] - time[same[0]])
+
+
+def channel_report(table: pd.DataFrame) -> pd.DataFrame:
+    """What was measured how often: one row per channel of ``CHANNELS`` (unmeasured ones too).
+
+    Columns: channel, meaning, unit, status ("every step", "sampled" or
+    "unmeasured"), samples (count of values), share (of all rows), interval_s (the
+    median time between consecutive samples within a trajectory [s]; NaN with
+    fewer than two in every trajectory), first_s and last_s (the earliest and the
+    latest time_s of a sample [s]), trajectories (how many have a sample).
+    """
+    rows = []
+    time = table["time_s"].to_numpy(dtype=np.float64)
+    trajectory = table["trajectory"].to_numpy()
+    for channel in CHANNELS:
+        sampled = table[channel].notna().to_numpy() if channel in table.columns else np.zeros(len(table), bool)
+        t, owner = time[sampled], trajectory[sampled]
+        gaps = np.diff(t)[owner[1:] == owner[:-1]]
+        count = int(sampled.sum())
+        rows.append(
+            {
+                "channel": channel,
+                "meaning": MEANING[channel],
+                "unit": UNIT[channel],
+                "status": "unmeasured" if count == 0 else "every step" if count == len(table) else "sampled",
+                "samples": count,
+                "share": count / len(table) if len(table) else 0.0,
+                "interval_s": float(np.median(gaps)) if gaps.size else np.nan,
+                "first_s": float(t.min()) if count else np.nan,
+                "last_s": float(t.max()) if count else np.nan,
+                "trajectories": int(pd.unique(owner).size),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def format_channel_report(report: pd.DataFrame) -> str:
+    """The channel report as one readable line per channel (for logs and findings)."""
+    lines = []
+    for r in report.itertuples():
+        where = f"{r.channel} ({r.meaning}, {r.unit})"
+        if r.status == "unmeasured":
+            lines.append(f"{where}: not measured")
+            continue
+        every = f"every {r.interval_s:g} s" if np.isfinite(r.interval_s) else "one sample per trajectory"
+        lines.append(
+            f"{where}: {r.samples} samples ({r.share:.0%} of steps) in {r.trajectories} trajectories, {every}, "
+            f"from {r.first_s:g} s to {r.last_s:g} s"
+        )
+    return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class MeasuredTrajectories:
+    """The measured channels of equal-length trajectories, stacked.
+
+    ``values`` (n, K, C) holds the channels ``channels`` (C names, in the order of
+    ``CHANNELS``) with NaN where a channel was not sampled; ``inputs`` (n, K, 5) the
+    inputs u1..u5; ``trajectories`` (n,) the ids; ``dt`` the time step [s].
+    """
+
+    values: np.ndarray
+    channels: tuple[str, ...]
+    inputs: np.ndarray
+    trajectories: np.ndarray
+    dt: float
+
+    def channel(self, name: str) -> np.ndarray:
+        """One channel (n, K), NaN where not sampled."""
+        if name not in self.channels:
+            raise KeyError(f"channel {name!r} was not measured; measured: {list(self.channels)}")
+        return self.values[..., self.channels.index(name)]
+
+
+def measured_trajectories(table: pd.DataFrame) -> MeasuredTrajectories:
+    """The measured channels (with NaN) and inputs of a checked table with equal-length trajectories."""
+    channels = measured_channels(table)
+    ordered = _ordered(table)
+    return MeasuredTrajectories(
+        _stack(ordered, channels),
+        channels,
+        _stack(ordered, INPUTS),
+        np.asarray(pd.unique(ordered["trajectory"])),
+        time_step(ordered),
+    )
+
+
 def arrays(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
-    """States (n, K, 8) and inputs (n, K, 5) of a checked table with equal-length trajectories."""
+    """States (n, K, 8) and inputs (n, K, 5) of a checked table with every state at every step
+    and equal-length trajectories (a sparse table raises, naming what is missing)."""
+    incomplete = incomplete_states(table)
+    if incomplete:
+        raise TrajectoryDataError("this needs every state x1..x8 at every step, but " + "; ".join(incomplete))
+    ordered = _ordered(table)
+    return _stack(ordered, STATES), _stack(ordered, INPUTS)
+
+
+def incomplete_states(table: pd.DataFrame) -> list[str]:
+    """One phrase per state that is absent or not sampled at every step (empty for a full table)."""
+    problems = []
+    for state in STATES:
+        if state not in table.columns:
+            problems.append(f"{state} ({MEANING[state]}) is absent")
+        elif table[state].isna().any():
+            problems.append(f"{state} ({MEANING[state]}) has {table[state].notna().sum()} of {len(table)} steps")
+    return problems
+
+
+def _ordered(table: pd.DataFrame) -> pd.DataFrame:
     lengths = table.groupby("trajectory", sort=True).size()
     if lengths.nunique() != 1:
         raise TrajectoryDataError(
             f"trajectories have different lengths ({lengths.min()}..{lengths.max()} rows); "
             "stacking them needs equal lengths"
         )
-    n, steps = lengths.size, int(lengths.iloc[0])
-    ordered = table.sort_values(["trajectory", "time_s"], kind="stable")
-    x = ordered[list(STATES)].to_numpy(dtype=np.float64, copy=True).reshape(n, steps, 8)
-    u = ordered[list(INPUTS)].to_numpy(dtype=np.float64, copy=True).reshape(n, steps, 5)
-    return x, u
+    return table.sort_values(["trajectory", "time_s"], kind="stable")
 
 
-def load_trajectories(path: str | Path) -> pd.DataFrame:
-    """Read and check a trajectory table from Parquet or CSV.
+def _stack(ordered: pd.DataFrame, columns: Sequence[str]) -> np.ndarray:
+    """Columns of a table ordered by trajectory and time, as (n, K, len(columns)) float64."""
+    n = ordered["trajectory"].nunique()
+    values = ordered[list(columns)].to_numpy(dtype=np.float64, copy=True)
+    return values.reshape(n, len(ordered) // n if n else 0, len(columns))
 
-    Checks, in order: the file exists and parses; the required columns are there
-    and numeric; every value is finite; within each trajectory time strictly
-    increases with a uniform step; masses are positive.  A missing ``step``
-    column is derived from the row order.  Raises :class:`TrajectoryDataError`.
-    """
-    path = Path(path)
-    table = _read(path)
+
+# ---------------------------------------------------------------- the checks
+def _check_required_columns(path: Path, table: pd.DataFrame) -> None:
     missing = [c for c in REQUIRED_COLUMNS if c not in table.columns]
     if missing:
         raise TrajectoryDataError(
-            f"{path}: missing column(s) {missing}; a trajectory table needs {list(REQUIRED_COLUMNS)}"
+            f"{path}: missing column(s) {missing}; a trajectory table needs {list(REQUIRED_COLUMNS)} "
+            f"and at least one of the measured channels {list(CHANNELS)}"
         )
-    checked = [c for c in (*KEY_COLUMNS, *STATES, *INPUTS, *DERIVED) if c in table.columns]
-    for column in checked:
+
+
+def _check_numeric(path: Path, table: pd.DataFrame, columns: Sequence[str]) -> None:
+    for column in columns:
         if not pd.api.types.is_numeric_dtype(table[column]):
-            row = _first_row(~pd.to_numeric(table[column], errors="coerce").notna())
+            row = _first_row(table[column].notna() & pd.to_numeric(table[column], errors="coerce").isna())
             raise TrajectoryDataError(
                 f"{path}: column {column!r} is not numeric (row {row}: {table[column].iloc[row]!r})"
             )
+
+
+def _check_every_row(path: Path, table: pd.DataFrame, columns: Sequence[str]) -> None:
+    """Keys and inputs: a finite value in every row."""
+    for column in columns:
         values = table[column].to_numpy(dtype=np.float64)
+        if np.isnan(values).any():
+            row = _first_row(np.isnan(values))
+            what = "the inputs u1..u5 are logged commands, needed at every step" if column in INPUTS else "a key"
+            raise TrajectoryDataError(f"{path}: column {column!r} has no value at row {row} ({what})")
         if not np.isfinite(values).all():
             row = _first_row(~np.isfinite(values))
             raise TrajectoryDataError(f"{path}: column {column!r} has a non-finite value at row {row}: {values[row]}")
-    _check_time(path, table)
+
+
+def _check_finite_where_sampled(path: Path, table: pd.DataFrame, columns: Sequence[str]) -> None:
+    """Channels: NaN marks a step without a sample; anything else must be finite."""
+    for column in columns:
+        values = table[column].to_numpy(dtype=np.float64)
+        bad = np.isinf(values)
+        if bad.any():
+            row = _first_row(bad)
+            raise TrajectoryDataError(
+                f"{path}: column {column!r} has a non-finite value at row {row}: {values[row]} "
+                "(leave a step that was not sampled empty, or NaN)"
+            )
+
+
+def _check_some_channel(path: Path, table: pd.DataFrame) -> None:
+    if not measured_channels(table):
+        raise TrajectoryDataError(
+            f"{path}: no measured channel: a trajectory table needs at least one of {list(CHANNELS)} "
+            f"with a value (columns: {list(table.columns)})"
+        )
+
+
+def _check_positive_masses(path: Path, table: pd.DataFrame) -> None:
     for column in MASS_STATES:
-        bad = table[column].to_numpy() <= 0
+        if column not in table.columns:
+            continue
+        bad = table[column].to_numpy(dtype=np.float64) <= 0  # NaN compares False: not sampled is fine
         if bad.any():
             row = _first_row(bad)
             raise TrajectoryDataError(
                 f"{path}: column {column!r} ({MEANING[column]}) must be positive, row {row} has {table[column].iloc[row]}"
             )
-    if "step" not in table.columns:
-        table.insert(1, "step", table.groupby("trajectory", sort=False).cumcount().astype(np.int32))
-    return table
 
 
 def _read(path: Path) -> pd.DataFrame:

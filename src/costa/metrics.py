@@ -16,7 +16,7 @@ figures leave it out.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +32,7 @@ __all__ = [
     "printed_metrics",
     "state_scale",
     "window_metrics",
+    "windows_from_fractions",
 ]
 
 
@@ -63,6 +64,24 @@ class EvaluationSettings:
         for name, n in self.horizons.items():
             if not 0 < n <= steps:
                 raise ValueError(f"evaluation.horizons.{name} = {n} does not fit trajectories of {steps} steps")
+
+
+def windows_from_fractions(fractions: Mapping[str, Sequence[float]], steps: int) -> dict[str, tuple[int, int]]:
+    """Disjoint windows [start, stop) in steps from fractions of a trajectory's length ``steps``.
+
+    A bound f becomes round(f * steps); the paper's windows are the fractions
+    [0, 0.02), [0.02, 0.5), [0.5, 1] of 5000 steps.  Raises ``ValueError`` naming a
+    window that is empty at this length.
+    """
+    windows = {}
+    for name, (low, high) in fractions.items():
+        start, stop = round(low * steps), round(high * steps)
+        if not 0 <= start < stop <= steps:
+            raise ValueError(
+                f"window {name!r} = [{low:g}, {high:g}) of {steps} steps is [{start}, {stop}): empty or outside the data"
+            )
+        windows[name] = (start, stop)
+    return windows
 
 
 def state_scale(x_train: np.ndarray) -> np.ndarray:

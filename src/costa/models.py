@@ -93,7 +93,13 @@ def _read(path: str | Path) -> dict:
 
 
 def load_models(paths: Sequence[str | Path]) -> NetworkModel:
-    """Instances of one model type (one or more files) stacked into one :class:`NetworkModel`."""
+    """Instances of one model type (one or more ``instance<i>.pt`` files) stacked into one :class:`NetworkModel`.
+
+    The files must share their model type, normalisation and config (those of one
+    training run).  ``model.rhs(x, u)`` then gives dx/dt (E, B, 8) for states x
+    (E, B, 8) and inputs u (B, 5), one row per instance; a CoSTA model rebuilds its
+    physics model from the stored config.  ``results/README.md`` shows an example.
+    """
     artifacts = [_read(p) for p in paths]
     first = artifacts[0]
     for path, other in zip(paths[1:], artifacts[1:], strict=True):

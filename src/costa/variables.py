@@ -1,13 +1,19 @@
 """Names, meanings and units of the cell's states, inputs and derived quantities.
 
 States are x1..x8 and inputs u1..u5 as in the paper (array index = number - 1).
+A measured table may also carry the model's outputs: the cell voltage ``U_cell``
+and the bath's Al2O3 and AlF3 mass fractions ``c2``, ``c3``.  States and outputs
+are the measurement *channels*; ``g1`` (the simulator's true liquidus temperature)
+is kept in simulated tables for reference only.
 """
 
 from __future__ import annotations
 
 STATES: tuple[str, ...] = tuple(f"x{i}" for i in range(1, 9))
 INPUTS: tuple[str, ...] = tuple(f"u{i}" for i in range(1, 6))
-DERIVED: tuple[str, ...] = ("g1", "U_cell")
+OUTPUTS: tuple[str, ...] = ("U_cell", "c2", "c3")
+CHANNELS: tuple[str, ...] = (*STATES, *OUTPUTS)
+AUXILIARY: tuple[str, ...] = ("g1",)
 
 MEANING: dict[str, str] = {
     "x1": "side-ledge mass",
@@ -25,6 +31,8 @@ MEANING: dict[str, str] = {
     "u5": "anode-cathode distance",
     "g1": "liquidus temperature",
     "U_cell": "cell voltage",
+    "c2": "Al2O3 mass fraction of the bath",
+    "c3": "AlF3 mass fraction of the bath",
     "time_s": "time",
 }
 
@@ -44,6 +52,8 @@ UNIT: dict[str, str] = {
     "u5": "m",
     "g1": "degC",
     "U_cell": "V",
+    "c2": "-",
+    "c3": "-",
     "time_s": "s",
 }
 

@@ -33,6 +33,7 @@ EVALUATED = [*MODEL_TYPES, "pbm"]  # the trained types and the ablated physics m
 
 wildcard_constraints:
     rep=r"(replicates/r[1-9][0-9]*/)?",
+    case=r"[A-Za-z0-9_-]+",
     split="train|test",
     model_type="|".join(MODEL_TYPES),
     model="|".join(EVALUATED),
@@ -182,6 +183,42 @@ def discovery_meta(wildcards):
     }
 
 
+SENSOR_SETS = list(config["discovery"]["sensors"])
+
+
+def sensor_findings(case, sensors):
+    """The findings of a shipped case under a sensor set (the full set is the discovery run itself)."""
+    if sensors == "full":
+        return out(f"discovery/{case}/findings.json")
+    return out(f"discovery/{case}/sensors/{sensors}/findings.json")
+
+
+def sensor_meta(wildcards):
+    """What findings.json records about a case measured by a sensor set."""
+    sensor_set = config["discovery"]["sensor_sets"][wildcards.sensors]
+    described = ", ".join(
+        f"{channel} every {spec['every_s']:g} s"
+        + (f" (noise {spec['noise']:g})" if "noise" in spec else "")
+        for channel, spec in sensor_set["channels"].items()
+    )
+    meta = discovery_meta(wildcards)
+    hours = sensor_set.get("hours")
+    length = f" of {hours:g} h" if hours else ""
+    return meta | {
+        "sensors": wildcards.sensors,
+        "data": meta["data"].replace("trajectories", f"trajectories{length}", 1)
+        + f", measured by the {wildcards.sensors!r} sensors: {described}",
+    }
+
+
+def declared_noise(wildcards):
+    """Noise std of the channels too sparse to estimate it from the data: the sensor set's, or yours."""
+    if "sensors" in wildcards.keys():
+        channels = config["discovery"]["sensor_sets"][wildcards.sensors]["channels"]
+        return {c: spec["noise"] for c, spec in channels.items() if "noise" in spec}
+    return dict((config["discovery"]["user_data"] or {}).get("noise", {}))
+
+
 def job_benchmarks(rep):
     """The benchmark file of every job of one replicate (the report's run-time table)."""
     prefix = out(f"{rep}benchmarks")
@@ -194,8 +231,10 @@ def job_benchmarks(rep):
 
 
 def all_targets():
-    targets = [f"{REPORT}/report.html"]
+    targets = [f"{REPORT}/report.html", out("cell_constants.csv")]
     targets += expand(out("discovery/{case}/discovery.png"), case=DISCOVERY_CASES)
+    if SENSOR_SETS != ["full"] and SHIPPED_CASES:
+        targets.append(out("discovery/sensors.csv"))
     targets += across_replicates(
         out("replicates/aggregate.csv"),
         out("replicates/claims.csv"),

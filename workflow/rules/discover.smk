@@ -69,6 +69,8 @@ rule discover:
         config=discovery_config,
         meta=discovery_meta,
         starting_model=starting_model_name,
+        name=lambda wildcards: wildcards.case,
+        declared_noise=declared_noise,
     script:
         "../scripts/discover.py"
 

@@ -57,5 +57,6 @@ rule collect_evaluation:
     params:
         bootstrap=config["evaluation"]["bootstrap"],
         seed=config["seed"],
+        size={key: config[key] for key in ("simulation", "training", "evaluation")},
     script:
         "../scripts/collect_evaluation.py"

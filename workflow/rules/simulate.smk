@@ -18,3 +18,22 @@ rule simulate:
         replicate=replicate_index,
     script:
         "../scripts/simulate.py"
+
+
+rule cell_constants:
+    """The cell's constants, derived from physics.cell (or overridden), with units and sources."""
+    input:
+        code=package_files("physics"),
+    output:
+        table=out("cell_constants.csv"),
+    log:
+        out("logs/cell_constants.log"),
+    benchmark:
+        out("benchmarks/cell_constants.tsv")
+    conda:
+        ENV
+    threads: 1
+    params:
+        physics=config["physics"],
+    script:
+        "../scripts/cell_constants.py"

@@ -3,7 +3,7 @@
 import pandas as pd
 
 from costa import runtime
-from costa.claims import evaluate_claims
+from costa.claims import below_paper_size, evaluate_claims
 from costa.summary import summary_table
 
 log = runtime.configure(snakemake)
@@ -14,6 +14,6 @@ per_state.to_parquet(snakemake.output.per_state, index=False)
 bootstrap = snakemake.params.bootstrap
 summary = summary_table(metrics, bootstrap["resamples"], bootstrap["confidence"], snakemake.params.seed)
 summary.to_csv(snakemake.output.summary, index=False)
-claims = evaluate_claims(summary)
+claims = evaluate_claims(summary, below_paper_size(snakemake.params.size))
 claims.to_csv(snakemake.output.claims, index=False)
-log.info("claims:\n%s", claims[["key", "holds", "evidence"]].to_string())
+log.info("claims:\n%s", claims[["key", "verdict", "evidence"]].to_string())

@@ -2,17 +2,24 @@
 
 import json
 
+import pandas as pd
+
 from costa import runtime
-from costa.data import load_trajectories
+from costa.data import channel_report, format_channel_report, load_trajectories
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.pipeline import run_discovery, starting_model
+from costa.physics import constants_table
 
 log = runtime.configure(snakemake)
-config, case = snakemake.params.config, snakemake.wildcards.case
+config, case = snakemake.params.config, snakemake.params.name
 start = starting_model(config, snakemake.params.starting_model)
 train, held_out = load_trajectories(snakemake.input.train), load_trajectories(snakemake.input.held_out)
-result = run_discovery(config, train, held_out, start, case, snakemake.input.train)
-found = findings(result, case, start, snakemake.params.meta)
+channels = channel_report(pd.concat([train, held_out], ignore_index=True))
+constants = constants_table(config["physics"])
+log.info("measured channels:\n%s", format_channel_report(channels))
+log.info("the cell's constants:\n%s", constants.to_string(index=False))
+result = run_discovery(config, train, held_out, start, case, snakemake.input.train, snakemake.params.declared_noise)
+found = findings(result, case, start, snakemake.params.meta, channels, constants)
 with open(snakemake.output.findings, "w") as handle:
     json.dump(found, handle, indent=1)
 with open(snakemake.output.markdown, "w") as handle:

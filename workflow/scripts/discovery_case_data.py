@@ -1,10 +1,11 @@
-"""Simulate a shipped discovery case: trajectories with a hidden effect, plus measurement noise."""
+"""Simulate a shipped discovery case: trajectories with a hidden effect, measured by a sensor set."""
 
 from costa import runtime
 from costa.data import write_trajectories
 from costa.discover.pipeline import case_tables
 
 runtime.configure(snakemake)
-train, held_out = case_tables(snakemake.params.config, snakemake.wildcards.case)
-write_trajectories(train, snakemake.output.train, {"case": snakemake.wildcards.case, "split": "train"})
-write_trajectories(held_out, snakemake.output.held_out, {"case": snakemake.wildcards.case, "split": "held_out"})
+sensors = snakemake.wildcards.get("sensors", "full")
+train, held_out = case_tables(snakemake.params.config, snakemake.wildcards.case, sensors)
+for table, path, split in ((train, snakemake.output.train, "train"), (held_out, snakemake.output.held_out, "held_out")):
+    write_trajectories(table, path, {"case": snakemake.wildcards.case, "sensors": sensors, "split": split})

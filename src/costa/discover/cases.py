@@ -4,9 +4,12 @@ Each case builds a *true* model from the full model (or, for the paper's case, i
 full model itself), simulates trajectories with it, and adds measurement noise; the
 discovery workflow gets the noisy data and a *starting* model that lacks the effect,
 and is never told what is hidden.  ``expected_equations`` and ``accepted`` say what
-a correct answer is; ``accepted`` lists every explanation that is the same physics
-(a missing flow into a balance and the same correction of a flow part that enters
-only that balance are indistinguishable from the states alone).
+a correct answer is; ``accepted`` lists the explanations a correct answer may name
+first: the same physics where the naming rule cannot choose (a missing flow into a
+balance and the same correction of a flow part that enters only that balance are
+indistinguishable from the states alone), and only the cause where it can (the bath
+conductivity, not the cell voltage computed from it; the feeder, not a flow in the
+alumina balance proportional to its command).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics import PROPERTIES, BalanceTerm, CellModel, PropertyCorrection, ablated_model
+from ..physics import PROPERTIES, BalanceTerm, CellModel, InputCorrection, PropertyCorrection, ablated_model
 
 __all__ = ["CASES", "HiddenEffectCase", "add_noise"]
 
@@ -95,7 +98,16 @@ def _conductivity_alf3(full: CellModel) -> CellModel:
     )
 
 
-_CELL_VOLTAGE_CLASS = ("part:bath_conductivity", "part:cell_voltage", "part:electric_power", "term:bath_energy")
+def _alumina_feeder(full: CellModel) -> CellModel:
+    """The alumina feeder delivers 92 % of its command u1 (a worn dosing chamber, say): less
+    alumina dissolves, and less AlF3 is neutralised and less cryolite formed by its impurities."""
+    return full.with_input(InputCorrection("u1", "-0.08", lambda v: -0.08), model_name="full+feeder at 92 %")
+
+
+def _tapping_shortfall(full: CellModel) -> CellModel:
+    """The tapping removes 90 % of the metal logged in u4 (the crucible's weight overstates it)."""
+    return full.with_input(InputCorrection("u4", "-0.1", lambda v: -0.1), model_name="full+tapping at 90 %")
+
 
 CASES: dict[str, HiddenEffectCase] = {
     c.name: c
@@ -157,8 +169,28 @@ CASES: dict[str, HiddenEffectCase] = {
             "full",
             0.005,
             ("x6",),
-            _CELL_VOLTAGE_CLASS,
+            ("part:bath_conductivity",),  # U and P_el, computed from g2, are its consequences
             _conductivity_alf3,
+        ),
+        HiddenEffectCase(
+            "alumina_feeder",
+            "the alumina feeder delivers 92 % of its command u1",
+            "an input that is not what reached the cell",
+            "full",
+            0.01,
+            ("x2",),
+            ("input:u1",),
+            _alumina_feeder,
+        ),
+        HiddenEffectCase(
+            "tapping_shortfall",
+            "the tapping removes 90 % of the metal logged in u4",
+            "an input that is not what reached the cell",
+            "full",
+            0.01,
+            ("x5",),
+            ("input:u4",),
+            _tapping_shortfall,
         ),
         HiddenEffectCase(
             "no_effect",

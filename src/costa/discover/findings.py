@@ -5,9 +5,17 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
+import pandas as pd
+
 from ..variables import MEANING, STATES
+from .partial_pipeline import PartialResult
+from .partial_search import PartialRound
 from .pipeline import DiscoveryResult
-from .search import Candidate, Round
+from .search import KEEP_LEVEL, Candidate, Round
+
+#: the levels of the coefficient intervals reported; the last one decides which terms are kept
+LEVELS = (0.95, KEEP_LEVEL)
 
 __all__ = ["findings", "findings_markdown"]
 
@@ -54,67 +62,191 @@ def _round(index: int, r: Round) -> dict[str, Any]:
     }
     if r.chosen is not None:
         named = _candidate(r.chosen, r.model)
-        named["coefficients"] = [
-            {
-                "term": f.name,
-                "value": float(c),
-                "ci95": [float(lo), float(hi)],
-                "inclusion": r.inclusion.get(f.name, 0.0),
-            }
-            for f, c, (lo, hi) in zip(r.chosen.features, r.chosen.coefficients, r.intervals, strict=True)
-        ]
+        named["kept_if"] = (
+            f"selected in at least half the bootstrap resamples and its {KEEP_LEVEL:.0%} interval "
+            f"(from the same resamples; the {LEVELS[0]:.0%} interval lies inside it) excludes zero"
+        )
+        intervals = {level: r.chosen.intervals(level) for level in LEVELS}
+        named["coefficients"] = _coefficients(r.chosen.features, r.chosen.coefficients, intervals, r.chosen.inclusion)
         chosen_terms = {f.name for f in r.chosen.features}
         named["other_terms_inclusion"] = {
-            k: v for k, v in sorted(r.inclusion.items(), key=lambda kv: -kv[1]) if k not in chosen_terms
+            k: v for k, v in sorted(r.chosen.inclusion.items(), key=lambda kv: -kv[1]) if k not in chosen_terms
         }
         named["chi2_after"] = {k: round(v, 3) for k, v in r.chosen.chi2_after.items()}
         found["named"] = named
     return found
 
 
-def findings(result: DiscoveryResult, name: str, start, meta: Mapping[str, Any]) -> dict[str, Any]:
-    """Everything a run found; ``meta`` describes the data (and, for a shipped case, what is hidden)."""
-    rounds = [_round(i + 1, r) for i, r in enumerate(result.rounds)]
+def _coefficients(features, coefficients, intervals_by_level, inclusion) -> list[dict[str, Any]]:
+    """One row per kept term: its value, its interval at each reported level, how often selected."""
+    return [
+        {
+            "term": f.name,
+            "value": float(c),
+            **{f"ci{100 * level:.0f}": list(iv[j]) for level, iv in intervals_by_level.items()},
+            "inclusion": inclusion.get(f.name, 0.0),
+        }
+        for j, (f, c) in enumerate(zip(features, coefficients, strict=True))
+    ]
+
+
+def _partial_candidate(c, model) -> dict[str, Any]:
+    h = c.hypothesis
+    return {
+        "hypothesis": h.key,
+        "kind": h.kind,
+        "target": h.target,
+        "unit": h.unit,
+        "description": h.describe(model),
+        "closed_form": c.formula,
+        "terms": [f.name for f in c.features],
+        "excess_removed": round(c.explained, 4),
+        "bic_gain": round(c.bic_gain, 1) if np.isfinite(c.bic_gain) else None,
+        "free_delta_log_likelihood_gain": round(c.score.log_likelihood_gain, 1),
+    }
+
+
+def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
+    """A round on partial measurements: channel tests instead of equation tests."""
+    found: dict[str, Any] = {
+        "round": index,
+        "model": r.model.name,
+        "channels_tested": [
+            {
+                "channel": t.channel,
+                "meaning": MEANING[t.channel],
+                "samples": t.samples,
+                "chi2_per_dof": round(t.chi2_per_dof, 3),
+                "z": round(t.z, 1),
+                "bias": round(t.bias, 3),
+                "bias_z": round(t.bias_z, 1),
+                "whiteness_z": round(t.whiteness_z, 1),
+                "flagged": t.flagged,
+            }
+            for t in r.tests
+        ],  # fmt: skip
+        "flagged": r.flagged,
+        "verdict": r.verdict,
+        "identifiable": r.identifiable,
+        "separated_by": r.separated_by,
+        "named": None,
+        "correction": None,
+        "equivalent": [_partial_candidate(c, r.model) for c in r.equivalent],
+        "alternatives": [
+            _partial_candidate(c, r.model) for c in r.ranking if c is not r.chosen and c not in r.equivalent
+        ][:5],
+    }
+    if r.chosen is not None:
+        correction = _partial_candidate(r.chosen, r.model)
+        correction["kept_if"] = (
+            f"selected in at least half the bootstrap resamples and its {KEEP_LEVEL:.0%} interval "
+            f"(from the same resamples; the {LEVELS[0]:.0%} interval lies inside it) excludes zero"
+        )
+        intervals = {level: r.chosen.intervals(level) for level in LEVELS}
+        correction["coefficients"] = _coefficients(
+            r.chosen.features, r.chosen.coefficients, intervals, r.chosen.inclusion
+        )
+        correction["channels_after"] = {t.channel: round(t.chi2_per_dof, 3) for t in r.chosen.tests_after}
+        found["correction"] = correction
+        if r.identifiable:
+            found["named"] = correction
+    return found
+
+
+GLOSSARY = "docs/glossary.md"
+
+
+def findings(
+    result: DiscoveryResult | PartialResult,
+    name: str,
+    start,
+    meta: Mapping[str, Any],
+    channels: pd.DataFrame | None = None,
+    constants: pd.DataFrame | None = None,
+) -> dict[str, Any]:
+    """Everything a run found; ``meta`` describes the data (and, for a shipped case, what is hidden).
+
+    ``channels`` (:func:`costa.data.channel_report`) and ``constants``
+    (:func:`costa.physics.constants_table` of the starting model's physics) are
+    recorded when given.  A run on partial measurements tests channels, not equations,
+    and may find an explanation it cannot name (``identifiable`` False).
+    """
+    partial = isinstance(result, PartialResult)
+    rounds = [(_partial_round if partial else _round)(i + 1, r) for i, r in enumerate(result.rounds)]
     named = [r["named"]["hypothesis"] for r in rounds if r["named"]]
+    unidentified = [r for r in rounds if partial and not r["identifiable"] and r["correction"]]
     first = rounds[0]
     if named:
         outcome = "found"
+    elif unidentified:
+        outcome = "not identifiable with these measurements"
     elif first["flagged"]:
         outcome = "disagreement without an explanation"
     else:
         outcome = "no effect"
-    gap = result.gap.pivot(index="model", columns="window", values="error")
-    windows = list(gap.columns)
-    shrink, above_floor = {}, {}
-    if "corrected model" in gap.index:
-        for w in windows:
-            before, after, floor = gap.loc["starting model", w], gap.loc["corrected model", w], result.floor[w]
-            shrink[w] = float(1 - after / before) if before > 0 else 0.0
-            above_floor[w] = float(min(1.0, (before - after) / (before - floor))) if before > floor else 0.0
+    extra: dict[str, Any] = {}
+    if channels is not None:
+        extra["channels"] = channels.astype(object).where(channels.notna(), None).to_dict(orient="records")
+    if constants is not None:
+        extra["constants"] = constants.to_dict(orient="records")
+    if partial:
+        measured = {"measurements": "partial", "flagged_channels": first["flagged"]}
+        noise = dict(zip(result.channels, map(float, result.noise), strict=True))
+        definition = (
+            "median over held-out rollouts of the coded error on the measured channels (mean |forecast - measured| / "
+            f"channel std over the sampled steps), each rollout from the state its model estimates from the first "
+            f"{result.start_steps} samples"
+        )
+    else:
+        measured = {"measurements": "full", "flagged_equations": first["flagged"]}
+        noise = {s: float(v) for s, v in zip(STATES, result.noise, strict=True)}
+        definition = "median over held-out rollouts of the coded AN-RFMSE per window"
     return {
         "case": name,
+        "glossary": GLOSSARY,
         **dict(meta),
+        **extra,
         "starting_model": start.name,
         "outcome": outcome,
-        "flagged_equations": first["flagged"],
+        **measured,
         "named": named,
-        "noise_estimate": {s: float(v) for s, v in zip(STATES, result.noise, strict=True)},
+        "noise_estimate": noise,
         "rounds": rounds,
         "corrected_model": result.corrected.describe(),
         "gap": {
-            "definition": "median over held-out rollouts of the coded AN-RFMSE per window",
+            "definition": definition,
+            "windows": {w: list(map(int, bounds)) for w, bounds in result.windows.items()},
+            "dt_s": result.dt,
             "errors": result.gap.to_dict(orient="records"),
             "noise_floor": result.floor,
-            "shrink": shrink,
-            "shrink_above_noise_floor": above_floor,
+            **_shrink(result.gap, result.floor),
         },
         "discovery_seconds": round(result.seconds, 1),
     }
 
 
+def _shrink(gap: pd.DataFrame, floor: Mapping[str, float]) -> dict[str, dict[str, float]]:
+    """Per window: the share of the starting model's error the correction removes, raw and above the floor."""
+    errors = gap.pivot(index="model", columns="window", values="error")
+    shrink, above_floor = {}, {}
+    if "corrected model" in errors.index:
+        for w in errors.columns:
+            before, after = errors.loc["starting model", w], errors.loc["corrected model", w]
+            shrink[w] = float(1 - after / before) if before > 0 else 0.0
+            above_floor[w] = float(min(1.0, (before - after) / (before - floor[w]))) if before > floor[w] else 0.0
+    return {"shrink": shrink, "shrink_above_noise_floor": above_floor}
+
+
 def findings_markdown(f: Mapping[str, Any]) -> str:
     """The findings as a short readable document."""
-    lines = [f"# Discovery: {f['case']}", ""]
+    lines = [
+        f"# Discovery: {f['case']}",
+        "",
+        f"Every symbol and term below (x1..x8, c2, g1, k0..k18, chi2/dof, z, BIC gain, inclusion, noise floor, "
+        f"AN-RFMSE ...) is explained in `{f.get('glossary', GLOSSARY)}` of the repository; `docs/own-data.md` "
+        "shows how to read this page.",
+        "",
+    ]
     if f.get("hidden"):
         lines += [f"**Hidden in the data** (not told to the workflow): {f['hidden']} ({f['kind']}).", ""]
     lines += [
@@ -123,46 +255,12 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
         f"**Outcome**: {f['outcome']}.",
         "",
     ]
-    for r in f["rounds"]:
-        lines += [f"## Round {r['round']}" + (" (richer term library)" if r["richer_library"] else ""), ""]
-        lines += [f"Residuals averaged over windows of {r['window_steps']} steps.", ""]
-        lines.append("| state | meaning | chi2/dof | z | disagrees |")
-        lines.append("|---|---|---|---|---|")
-        lines += [
-            f"| {e['state']} | {e['meaning']} | {e['chi2_per_dof']} | {e['z']} | {'yes' if e['flagged'] else ''} |"
-            for e in r["equations"]
-        ]
-        lines += ["", f"**Verdict**: {r['verdict']}.", ""]
-        for state, items in r["where"].items():
-            lines.append(
-                f"- {state}'s residual follows "
-                + ", ".join(f"{i['variable']} (rho {i['spearman']:+.2f})" for i in items)
-            )
-        if r["named"]:
-            n = r["named"]
-            lines += [
-                "",
-                f"**Named**: `{n['hypothesis']}`: {n['description']}",
-                "",
-                f"Correction [{n['unit']}]: `{n['closed_form']}`",
-                "",
-            ]
-            lines.append("| term | coefficient | 95 % interval | selected in resamples |")
-            lines.append("|---|---|---|---|")
-            lines += [
-                f"| `{c['term']}` | {c['value']:.4g} | [{c['ci95'][0]:.4g}, {c['ci95'][1]:.4g}] | {c['inclusion']:.0%} |"
-                for c in n["coefficients"]
-            ]
-        if r["equivalent"]:
-            lines += ["", "Equally good explanations (the data cannot tell them apart):"]
-            lines += [f"- `{c['hypothesis']}`: `{c['closed_form']}`" for c in r["equivalent"]]
-        if r["alternatives"]:
-            lines += ["", "Runners-up:"]
-            lines += [
-                f"- `{c['hypothesis']}` removes {c['excess_removed']:.0%} of the excess (BIC gain {c['bic_gain']:.0f})"
-                for c in r["alternatives"]
-            ]
+    if f.get("channels"):
+        lines += ["**Measured channels**:", ""]
+        lines += [f"- {line}" for line in _channel_lines(f["channels"])]
         lines.append("")
+    for r in f["rounds"]:
+        lines += _partial_round_lines(r) if "channels_tested" in r else _round_lines(r)
     g = f["gap"]
     lines += [
         "## Gap on held-out trajectories",
@@ -174,6 +272,14 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
     for row in g["errors"]:
         errors.setdefault(row["model"], {})[row["window"]] = row["error"]
     windows = list(g["noise_floor"])
+    if "windows" in g:
+        dt = g["dt_s"]
+        lines += [
+            "Windows in steps of the held-out trajectories (dt = "
+            + f"{dt:g} s): "
+            + ", ".join(f"{w} [{a}, {b}) = {a * dt:g}-{b * dt:g} s" for w, (a, b) in g["windows"].items()),
+            "",
+        ]
     lines.append("| model | " + " | ".join(windows) + " |")
     lines.append("|---|" + "---|" * len(windows))
     lines += [f"| {m} | " + " | ".join(f"{e[w]:.4f}" for w in windows) + " |" for m, e in errors.items()]
@@ -197,4 +303,112 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
         "",
         f"Discovery took {f['discovery_seconds']} s.",
     ]
+    if f.get("constants"):
+        lines += ["", "<details><summary>The cell's constants (the starting model's)</summary>", ""]
+        lines += ["| constant | value | unit | from |", "|---|---|---|---|"]
+        lines += [f"| {c['constant']} | {c['value']:.6g} | {c['unit']} | {c['source']} |" for c in f["constants"]]
+        lines += ["", "</details>"]
     return "\n".join(lines) + "\n"
+
+
+def _channel_lines(channels: list[Mapping[str, Any]]) -> list[str]:
+    from ..data import format_channel_report
+
+    table = pd.DataFrame(channels).astype({"interval_s": float, "first_s": float, "last_s": float})
+    return format_channel_report(table).splitlines()
+
+
+def _round_lines(r: Mapping[str, Any]) -> list[str]:
+    """A full-data round: the equations' tests, the verdict, the named correction and the others."""
+    lines = [f"## Round {r['round']}" + (" (richer term library)" if r["richer_library"] else ""), ""]
+    lines += [f"Residuals averaged over windows of {r['window_steps']} steps.", ""]
+    lines.append("| state | meaning | chi2/dof | z | disagrees |")
+    lines.append("|---|---|---|---|---|")
+    lines += [
+        f"| {e['state']} | {e['meaning']} | {e['chi2_per_dof']} | {e['z']} | {'yes' if e['flagged'] else ''} |"
+        for e in r["equations"]
+    ]
+    lines += ["", f"**Verdict**: {r['verdict']}.", ""]
+    for state, items in r["where"].items():
+        lines.append(
+            f"- {state}'s residual follows " + ", ".join(f"{i['variable']} (rho {i['spearman']:+.2f})" for i in items)
+        )
+    if r["named"]:
+        n = r["named"]
+        lines += [
+            "",
+            f"**Named**: `{n['hypothesis']}`: {n['description']}",
+            "",
+            f"Correction [{n['unit']}]: `{n['closed_form']}`",
+            "",
+        ]
+        lines += _coefficient_lines(n)
+    if r["equivalent"]:
+        lines += ["", "Equivalent under these measurements (the data cannot tell them apart):"]
+        lines += [f"- `{c['hypothesis']}`: `{c['closed_form']}`" for c in r["equivalent"]]
+    if r["alternatives"]:
+        lines += ["", "Runners-up:"]
+        lines += [
+            f"- `{c['hypothesis']}` removes {c['excess_removed']:.0%} of the excess (BIC gain {c['bic_gain']:.0f})"
+            for c in r["alternatives"]
+        ]
+    lines.append("")
+    return lines
+
+
+def _coefficient_lines(n: Mapping[str, Any]) -> list[str]:
+    levels = [key for key in n["coefficients"][0] if key.startswith("ci")] if n["coefficients"] else []
+    lines = [
+        "| term | coefficient | "
+        + " | ".join(f"{level[2:]} % interval" for level in levels)
+        + " | selected in resamples |"
+    ]
+    lines.append("|---|---|" + "---|" * len(levels) + "---|")
+    lines += [
+        f"| `{c['term']}` | {c['value']:.4g} | "
+        + " | ".join(f"[{c[level][0]:.4g}, {c[level][1]:.4g}]" for level in levels)
+        + f" | {c['inclusion']:.0%} |"
+        for c in n["coefficients"]
+    ]
+    return lines + ["", f"A term is kept if {n['kept_if']}."]
+
+
+def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
+    """A round on partial measurements: the channels' innovation tests, the verdict, the correction
+    (named only when the measurements can tell it from the other explanations)."""
+    lines = [
+        f"## Round {r['round']}",
+        "",
+        "Innovations of the smoother on each measured channel (white, zero-mean and of unit variance under a right model).",
+        "",
+    ]
+    lines.append("| channel | meaning | samples | chi2/dof | z | bias | bias z | whiteness z | disagrees |")
+    lines.append("|---|---|---|---|---|---|---|---|---|")
+    lines += [
+        f"| {t['channel']} | {t['meaning']} | {t['samples']} | {t['chi2_per_dof']} | {t['z']} | {t['bias']} | "
+        f"{t['bias_z']} | {t['whiteness_z']} | {'yes' if t['flagged'] else ''} |"
+        for t in r["channels_tested"]
+    ]
+    lines += ["", f"**Verdict**: {r['verdict']}.", ""]
+    correction = r.get("correction")
+    if correction:
+        title = (
+            "Named" if r["named"] else "Best-fitting explanation (not named: not identifiable with these measurements)"
+        )
+        lines += [f"**{title}**: `{correction['hypothesis']}`: {correction['description']}", "",
+                  f"Correction [{correction['unit']}]: `{correction['closed_form']}`", ""]  # fmt: skip
+        lines += _coefficient_lines(correction)
+    if r["equivalent"]:
+        lines += ["", "Equivalent under these measurements (they fit the measured channels as well):"]
+        lines += [
+            f"- `{e['hypothesis']}`: `{e['closed_form']}` (BIC gain {e['bic_gain']:.0f})" for e in r["equivalent"]
+        ]
+        if r["separated_by"]:
+            lines.append(f"- measuring `{r['separated_by']}` would separate them")
+    if r["alternatives"]:
+        lines += ["", "Runners-up:"]
+        lines += [
+            f"- `{a['hypothesis']}` removes {a['excess_removed']:.0%} of the excess (BIC gain {a['bic_gain'] or 0:.0f})"
+            for a in r["alternatives"]
+        ]
+    return lines + [""]

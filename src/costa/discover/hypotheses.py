@@ -1,4 +1,5 @@
-"""Candidate explanations of a disagreement: a wrong part, or a flow missing from the balances.
+"""Candidate explanations of a disagreement: a wrong part, a flow missing from the balances,
+a wrong physical property, or an input that is not what reached the cell.
 
 Each hypothesis is one unknown function delta(t) entering the state rates through a
 known sensitivity J_h(x, u) (8,):
@@ -10,7 +11,10 @@ known sensitivity J_h(x, u) (8,):
 - ``transfer:<a>-><b>``: a flow leaves balance a and enters balance b (same unit);
 - ``property:<name>``: a physical property shared by several constants (a
   conductivity, a heat capacity, the current efficiency) is off by a relative delta,
-  which rescales each constant it enters (:mod:`costa.physics.properties`).
+  which rescales each constant it enters (:mod:`costa.physics.properties`);
+- ``input:<u>``: the input reaching the cell is the logged one times (1 + delta) (a feeder
+  that delivers less than its command); J = d(dx/dt)/du * u, through every part and
+  balance that reads the input.
 
 Hypotheses with the same J explain the data equally well; the closed form and, on a
 tie, :data:`PREFERENCE` decide which one is named (the others are reported as
@@ -20,12 +24,22 @@ equivalent).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics import BALANCES, PART_ORDER, PROPERTIES, BalanceTerm, CellModel, CellVariables, PropertyCorrection
+from ..physics import (
+    BALANCES,
+    PART_ORDER,
+    PROPERTIES,
+    BalanceTerm,
+    CellModel,
+    CellVariables,
+    InputCorrection,
+    PropertyCorrection,
+)  # fmt: skip
+from ..variables import INPUTS, MEANING
 from .library import Feature, evaluate, feature_library
 
 __all__ = ["Hypothesis", "candidate_hypotheses"]
@@ -49,6 +63,11 @@ class Hypothesis:
             return f"a flow [{self.unit}] is missing from the {self.target.replace('_', ' ')} balance"
         if self.kind == "property":
             return f"the {PROPERTIES[self.target].meaning} is not as modelled (a relative change, rescaling the constants it enters)"
+        if self.kind == "input":
+            return (
+                f"the {MEANING[self.target]} {self.target} reaching the cell is not the logged one "
+                "(a relative gain, wherever the model reads it)"
+            )
         source, sink = self.target.split("->")
         return f"a flow [{self.unit}] from the {source.replace('_', ' ')} balance to the {sink.replace('_', ' ')} balance is missing"
 
@@ -56,7 +75,8 @@ class Hypothesis:
         """The term library.  A part's correction may read only the quantities computed before
         it, and a part that is not a flow (kg/s or W) may not depend on the feed and tapping flows."""
         library = feature_library(relative=self.kind == "part", rich=rich)
-        if self.kind == "property":  # a property of the materials: states and operating conditions only
+        if self.kind in ("property", "input"):
+            # a property of the materials, or an actuator's gain: states and operating conditions only
             return [f for f in library if not f.needs and not f.reads_flow_inputs]
         if self.kind != "part":
             return library
@@ -66,10 +86,10 @@ class Hypothesis:
 
     def sensitivity(self, model: CellModel, x: np.ndarray, u: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
         """dx/dt per unit of delta (..., 8) at the current model; ``base`` = model.rhs(x, u) if known."""
-        if self.kind in ("part", "property"):
+        if self.kind in ("part", "property", "input"):
             with np.errstate(all="ignore"):
                 base = model.rhs(x, u) if base is None else base
-        if self.kind == "property":
+        if self.kind in ("property", "input"):
             with np.errstate(all="ignore"):
                 bumped = self._with(model, lambda v, q, own: 1e-6, "1e-6")
                 return (bumped.rhs(x, u) - base) / 1e-6
@@ -109,29 +129,35 @@ class Hypothesis:
         """``model`` with delta given sample by sample (an array shaped like the data it will see)."""
         return self._with(model, lambda v, q, own: values, "delta(t)")
 
+    def driven(self, model: CellModel, source: Callable[[], np.ndarray]) -> CellModel:
+        """``model`` with delta read from ``source()`` at every evaluation (a batch's current values)."""
+        return self._with(model, lambda v, q, own: source(), "delta(t)")
+
     def _with(self, model: CellModel, correction, formula: str) -> CellModel:
-        if self.kind == "property":
-            # one correction per property: a further change adds to the delta already there,
-            # so that derivatives taken at a corrected model are derivatives in delta
-            earlier = [c for c in model.properties if c.property.name == self.target]
-            others = tuple(c for c in model.properties if c.property.name != self.target)
-            if earlier:
-                previous = earlier[0]
-                merged = PropertyCorrection(
-                    previous.property,
-                    f"{previous.formula} + {formula}",
-                    lambda v: previous.fn(v) + correction(v, {}, None),
-                )
+        if self.kind in ("property", "input"):
+            # one correction per property or input: a further change adds to the delta already
+            # there, so that derivatives taken at a corrected model are derivatives in delta
+            prop = self.kind == "property"
+            name = "properties" if prop else "inputs"
+            here = [(c.property.name if prop else c.input) == self.target for c in getattr(model, name)]
+            earlier = next((c for c, same in zip(getattr(model, name), here, strict=True) if same), None)
+            rest = tuple(c for c, same in zip(getattr(model, name), here, strict=True) if not same)
+            if earlier is not None:
+                formula = f"{earlier.formula} + {formula}"
+
+            def fn(v):
+                return (earlier.fn(v) if earlier is not None else 0.0) + correction(v, {}, None)
+
+            if prop:
+                merged = PropertyCorrection(PROPERTIES[self.target], formula, fn)
             else:
-                merged = PropertyCorrection(PROPERTIES[self.target], formula, lambda v: correction(v, {}, None))
-            return dataclasses.replace(model, properties=others).with_property(merged, model_name=model.name)
+                merged = InputCorrection(self.target, formula, fn)
+            return dataclasses.replace(model, **{name: (*rest, merged)})
         if self.kind == "part":
             part = model.parts[self.target]
             return model.with_part(
                 self.target,
-                part.renamed(
-                    f"{part.formula} + {formula}", lambda v, k, q: part(v, k, q) + correction(v, q, part(v, k, q))
-                ),
+                part.renamed(f"{part.formula} + {formula}", lambda v, k, q: _plus(part(v, k, q), correction, v, q)),
             )
         term = BalanceTerm(
             f"discovered_{self.target.replace('->', '_to_')}", formula, self.unit, dict(self.targets),
@@ -149,15 +175,24 @@ class Hypothesis:
         return " + ".join(parts).replace("+ -", "- ") or "0"
 
 
-#: On a tie, which kind is named first: an added flow reads as physics unless the data
-#: need the part's own value (a relative correction), which then wins the BIC anyway.
-PREFERENCE = {"term": 0, "transfer": 1, "part": 2, "property": 3}
+def _plus(own, correction, v, q):
+    """A part's value plus its correction, which may read the part's own value."""
+    return own + correction(v, q, own)
+
+
+#: On a tie, which kind is named first: an input that is not what reached the cell (a
+#: logged feed or tapping, wrong, is the same as a flow proportional to it in its balance,
+#: but it is the cause); then an added flow, which reads as physics unless the data need the
+#: part's own value (a relative correction), which then wins the BIC anyway.
+PREFERENCE = {"input": 0, "term": 1, "transfer": 2, "part": 3, "property": 4}
 
 
 def candidate_hypotheses(model: CellModel) -> list[Hypothesis]:
-    """Every part, every balance, every pair of balances of the same unit, every physical property."""
+    """Every part, every balance, every pair of balances of the same unit, every physical
+    property, every input."""
     hypotheses = [Hypothesis(f"part:{name}", "part", name, model.parts[name].unit) for name in PART_ORDER]
     hypotheses += [Hypothesis(f"property:{name}", "property", name, "-") for name in PROPERTIES]
+    hypotheses += [Hypothesis(f"input:{name}", "input", name, "-") for name in INPUTS]
     for balance, (_, unit) in BALANCES.items():
         hypotheses.append(Hypothesis(f"term:{balance}", "term", balance, unit, {balance: 1.0}))
     names = list(BALANCES)

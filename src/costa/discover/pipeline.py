@@ -11,18 +11,29 @@ import numpy as np
 import pandas as pd
 
 from .. import seeds
-from ..data import TrajectoryDataError, arrays, load_trajectories, to_table
-from ..metrics import EvaluationSettings, state_scale
+from ..data import TrajectoryDataError, arrays, incomplete_states, load_trajectories, time_step
+from ..metrics import EvaluationSettings, state_scale, windows_from_fractions
+from ..observe import observe
 from ..physics import CellModel, model_from_config
+from ..sensors import measure, sensor_sets_from_config
 from ..simulate import SimulationSettings, simulate_set
 from ..variables import INPUTS
-from .cases import HiddenEffectCase, add_noise
+from .cases import HiddenEffectCase
 from .gap import gap_tables, noise_floor
+from .partial_pipeline import PartialResult, run_partial_discovery
 from .search import DiscoverySettings, Round, discover
 from .unshipped import find_case
 from .weak_form import estimate_noise
 
-__all__ = ["DiscoveryData", "DiscoveryResult", "case_tables", "run_discovery", "split_held_out", "starting_model"]
+__all__ = [
+    "DiscoveryData",
+    "DiscoveryResult",
+    "case_tables",
+    "gap_settings",
+    "run_discovery",
+    "split_held_out",
+    "starting_model",
+]
 
 
 @dataclass(frozen=True)
@@ -45,6 +56,8 @@ class DiscoveryResult:
     per_state: pd.DataFrame
     floor: dict[str, float]
     seconds: float
+    windows: dict[str, tuple[int, int]]  # the gap's windows [start, stop) in steps of the held-out data
+    dt: float  # the data's time step [s]
 
 
 def starting_model(config: Mapping, name: str) -> CellModel:
@@ -56,18 +69,31 @@ def starting_model(config: Mapping, name: str) -> CellModel:
     return models[name]
 
 
-def case_tables(config: Mapping, case: str | HiddenEffectCase) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Noisy training and held-out tables of a case (a shipped or unshipped one by name), simulated with its true model."""
+def case_tables(
+    config: Mapping, case: str | HiddenEffectCase, sensors: str = "full"
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Training and held-out tables of a case (a shipped or unshipped one by name), simulated with its true model
+    and measured by the sensor set ``sensors`` of ``discovery.sensor_sets``.
+
+    A sensor that leaves its noise open gets the case's level: that fraction of its channel's
+    std over the data set (the full set is then every state with the case's noise).
+    """
     case = find_case(case) if isinstance(case, str) else case
     discovery = config["discovery"]
+    sensor_set = sensor_sets_from_config(discovery["sensor_sets"])[sensors]
     settings = SimulationSettings.from_config(config["simulation"])
+    settings = replace(settings, steps=sensor_set.steps(settings.dt, settings.steps))
     true, _ = case.models(model_from_config(config["physics"])[0])
     tables = []
     for split, count in (("train", discovery["trajectories"]), ("held_out", discovery["held_out_trajectories"])):
         stream = f"discovery/{case.name}/{split}"
         trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream)
-        noisy = add_noise(trajectories.x, case.noise, seeds.numpy_generator(config["seed"], 0, f"{stream}/noise"))
-        tables.append(to_table(noisy, trajectories.u, settings.dt))
+        x, u = trajectories.x, trajectories.u
+        values = observe(true, x, u, sensor_set.channels).reshape(-1, len(sensor_set.channels))
+        default = dict(zip(sensor_set.channels, case.noise * values.std(axis=0), strict=True))
+        noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
+        rng = seeds.numpy_generator(config["seed"], 0, noise)
+        tables.append(measure(true, x, u, settings.dt, sensor_set, rng, default))
     return tables[0], tables[1]
 
 
@@ -101,8 +127,36 @@ def _data(train: pd.DataFrame, held_out: pd.DataFrame, source: str, window: int)
     x, u = arrays(train)
     xh, uh = arrays(held_out)
     _check_suitable(x, u, window, source)
-    steps = np.diff(train["time_s"].to_numpy()[:2])
-    return DiscoveryData(x, u, xh, uh, float(steps[0]))
+    return DiscoveryData(x, u, xh, uh, time_step(train))
+
+
+#: the paper's windows [0, 100), [100, 2500), [2500, 5000) as fractions of a trajectory's length
+PAPER_FRACTIONS = {"short": (0.0, 0.02), "medium": (0.02, 0.5), "long": (0.5, 1.0)}
+
+
+def gap_settings(config: Mapping, name: str, steps: int) -> EvaluationSettings:
+    """How the gap on held-out trajectories of ``steps`` samples is scored.
+
+    A shipped case simulated at ``simulation.steps`` is scored in the config's evaluation
+    windows (the paper's at 5000 steps).  Your own data are scored in
+    ``discovery.user_data.gap_windows``, fractions of the held-out length, and data of any
+    other length (a sensor set's longer trajectories) in the same fractions as the paper's
+    windows (the first 2 %, 2-50 %, 50-100 %).
+    """
+    evaluation = EvaluationSettings.from_config(config["evaluation"])
+    user = config["discovery"]["user_data"]
+    if user and user["name"] == name:
+        fractions, key = user["gap_windows"], "discovery.user_data.gap_windows"
+    elif steps == config["simulation"]["steps"]:
+        evaluation.check(steps)
+        return evaluation
+    else:
+        fractions, key = PAPER_FRACTIONS, "the paper's window fractions"
+    try:
+        windows = windows_from_fractions(fractions, steps)
+    except ValueError as error:
+        raise TrajectoryDataError(f"{key}: {error}; make the window wider") from None
+    return replace(evaluation, windows=windows, horizons={w: stop for w, (_, stop) in windows.items()})
 
 
 def settings_from_config(config: Mapping) -> DiscoverySettings:
@@ -115,27 +169,38 @@ def settings_from_config(config: Mapping) -> DiscoverySettings:
 
 
 def run_discovery(
-    config: Mapping, train: pd.DataFrame, held_out: pd.DataFrame, start: CellModel, name: str, source: str
-) -> DiscoveryResult:
+    config: Mapping,
+    train: pd.DataFrame,
+    held_out: pd.DataFrame,
+    start: CellModel,
+    name: str,
+    source: str,
+    declared_noise: Mapping[str, float] | None = None,
+) -> DiscoveryResult | PartialResult:
     """Discover on ``train``, then measure the gap of the starting and corrected models on ``held_out``.
 
+    Tables with every state at every step take the weak-form route; any other table (states
+    missing or sampled now and then, outputs such as the cell voltage) the estimator's
+    (:mod:`.partial_search`), with ``declared_noise`` for channels too sparse to estimate it.
     ``name`` keys the random streams; ``source`` names the data in error messages.
     """
     settings = replace(settings_from_config(config), seed=seeds.stream(config["seed"], 0, f"discovery/{name}/search"))
+    floor_rng = seeds.numpy_generator(config["seed"], 0, f"discovery/{name}/floor")
+    if incomplete_states(train) or incomplete_states(held_out):
+        evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
+        return run_partial_discovery(train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng)
     data = _data(train, held_out, source, settings.window)
     started = time.perf_counter()
     rounds, noise = discover(start, data.x, data.u, data.dt, settings)
     seconds = time.perf_counter() - started
     corrected = next((r.chosen.corrected for r in reversed(rounds) if r.chosen is not None), start)
-    evaluation = EvaluationSettings.from_config(config["evaluation"])
-    evaluation.check(data.x_held_out.shape[1])
+    evaluation = gap_settings(config, name, data.x_held_out.shape[1])
     scale = state_scale(data.x)
     models = (
         {"starting model": start, "corrected model": corrected} if corrected is not start else {"starting model": start}
     )
     gap, per_state = gap_tables(models, data.x_held_out, data.u_held_out, data.dt, scale, evaluation)
-    rng = seeds.numpy_generator(config["seed"], 0, f"discovery/{name}/floor")
     # the held-out trajectories' own noise: their sensors (or their noise level) may differ
     held_out_noise = estimate_noise(data.x_held_out)
-    floor = noise_floor(corrected, data.x_held_out, data.u_held_out, data.dt, held_out_noise, scale, evaluation, rng)
-    return DiscoveryResult(rounds, noise, corrected, gap, per_state, floor, seconds)
+    floor = noise_floor(corrected, data.x_held_out, data.u_held_out, data.dt, held_out_noise, scale, evaluation, floor_rng)
+    return DiscoveryResult(rounds, noise, corrected, gap, per_state, floor, seconds, dict(evaluation.windows), data.dt)

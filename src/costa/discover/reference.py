@@ -4,17 +4,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import numpy as np
 import pandas as pd
 
 from .. import seeds
-from ..data import arrays
+from ..data import arrays, time_step
 from ..forecast import rollout_networks
-from ..metrics import EvaluationSettings, state_scale
+from ..metrics import state_scale
 from ..models import NetworkModel
 from ..physics import CellModel
 from ..train import ModelType, TrainingData, TrainingSettings, train_ensemble, training_data
 from .gap import gap_tables
+from .pipeline import gap_settings
 
 __all__ = ["costa_reference", "train_costa"]
 
@@ -45,9 +45,9 @@ def costa_reference(
     """Train a small CoSTA ensemble on ``train`` with ``start`` as its physics; its gap on ``held_out``."""
     x, u = arrays(train)
     xh, uh = arrays(held_out)
-    dt = float(np.diff(train["time_s"].to_numpy()[:2])[0])
+    dt = time_step(train)
     network = train_costa(config, training_data(x, u, dt, "costa", start), start, name)
     forecasts = rollout_networks(network, xh, uh, dt, config["evaluation"]["copied_samples"]["networks"])
-    evaluation = EvaluationSettings.from_config(config["evaluation"])
+    evaluation = gap_settings(config, name, xh.shape[1])
     gap, _ = gap_tables({"CoSTA reference": forecasts}, xh, uh, dt, state_scale(x), evaluation)
     return gap

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Fit", "GramSystem", "bootstrap", "stepwise"]
+__all__ = ["Fit", "GramSystem", "coefficient_samples", "resample_weights", "selection_frequency", "stepwise"]
 
 
 @dataclass(frozen=True)
@@ -43,6 +43,12 @@ class GramSystem:
             d, z = design[rows_g], target[rows_g]
             G[g], b[g], zz[g], rows[g] = d.T @ d, d.T @ z, z @ z, rows_g.sum()
         return cls(G, b, zz, rows)
+
+    def totals(self, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The weighted sums for every row of ``weights`` (R, g) at once: G (R, P, P), b (R, P),
+        zz (R,), rows (R,)."""
+        G = (weights @ self.G.reshape(len(self.zz), -1)).reshape(len(weights), *self.G.shape[1:])
+        return G, weights @ self.b, weights @ self.zz, weights @ self.rows
 
     def total(self, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
         w = np.ones(len(self.zz)) if weights is None else weights
@@ -136,22 +142,22 @@ def stepwise(
     return Fit(tuple(selected), coefficients, zz - explained, zz, rows, baseline - bic(explained, len(selected)))
 
 
-def bootstrap(
-    system: GramSystem, chosen: Sequence[int], resamples: int, rng: np.random.Generator, **selection
-) -> tuple[np.ndarray, np.ndarray]:
-    """Resample groups with replacement.
+def resample_weights(groups: int, resamples: int, rng: np.random.Generator) -> np.ndarray:
+    """(resamples, groups) counts: each resample draws ``groups`` groups with replacement."""
+    return np.stack([np.bincount(rng.integers(0, groups, groups), minlength=groups) for _ in range(resamples)]).astype(
+        float
+    )
 
-    Returns the inclusion frequency of every term under re-selection (P,) and the
-    coefficients of the ``chosen`` terms refitted on each resample (resamples, k).
-    """
-    groups = len(system.zz)
+
+def selection_frequency(system: GramSystem, weights: np.ndarray, **selection) -> np.ndarray:
+    """How often forward selection picks each term (P,) over the resamples ``weights`` (R, g)."""
     inclusion = np.zeros(system.G.shape[1])
-    coefficients = np.full((resamples, len(chosen)), np.nan)
-    for r in range(resamples):
-        weights = np.bincount(rng.integers(0, groups, groups), minlength=groups).astype(float)
-        G, b, zz, rows = system.total(weights)
-        fit = stepwise(G, b, zz, rows, **selection)
-        inclusion[list(fit.selected)] += 1
-        if chosen:
-            coefficients[r] = _solve(G, b, chosen)
-    return inclusion / resamples, coefficients
+    for G, b, zz, rows in zip(*system.totals(weights), strict=True):
+        inclusion[list(stepwise(G, b, float(zz), float(rows), **selection).selected)] += 1
+    return inclusion / len(weights)
+
+
+def coefficient_samples(system: GramSystem, chosen: Sequence[int], weights: np.ndarray) -> np.ndarray:
+    """The ``chosen`` terms' coefficients refitted on each resample of ``weights`` (R, g): (R, k)."""
+    G, b, _, _ = system.totals(weights)
+    return np.stack([_solve(G_r, b_r, chosen) for G_r, b_r in zip(G, b, strict=True)])

@@ -7,41 +7,52 @@ One round:
 2. every hypothesis (:mod:`.hypotheses`) is screened by how much of the residual a
    free delta(t) along its sensitivity explains; the promising ones get a sparse
    closed form from the term library (:mod:`.library`, :mod:`.regression`): the terms
-   a bootstrap of the forward selection picks in at least half the resamples, and whose
-   99 % interval excludes zero, then refined by Gauss-Newton on the exact residual (a
-   wrong liquidus temperature enters the energy balances squared);
+   a bootstrap over blocks of trajectories of the forward selection picks in at least
+   half the resamples, refined by Gauss-Newton on the exact residual (a wrong liquidus
+   temperature enters the energy balances squared); a term whose 99 % interval from the
+   same resamples covers zero is dropped and the rest refitted, so every kept term's
+   reported interval excludes zero;
 3. candidates are ranked by the BIC gain of their correction on the exact residual;
    among those within ``equivalence`` of the best (a difference the data cannot
-   call strong) the simplest is named (fewest terms, then a flow before a part
-   correction, then the most elementary part); the others are reported as
+   call strong) the cause is named before its consequences (a part before the parts
+   computed from it), then the simplest (fewest terms, then an input before a flow
+   before a part correction, then the most elementary part); the others are reported as
    equivalent explanations, the rest as runners-up.  In later rounds an effect named
    before is refined rather than a new one introduced unless the new one gains clearly
    more (``new_mechanism_margin``): what is left after a first closed form is usually the
    curvature that form missed, and any flow into the same balance can mimic it;
 4. the named correction must remove a material share of the excess and gain enough
-   BIC; its coefficients get intervals and inclusion frequencies from a bootstrap
-   over blocks of trajectories; the corrected model goes into the next round.
+   BIC; the corrected model goes into the next round.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.stats import spearmanr
 
 from ..physics import PART_ORDER, PROPERTIES, CellModel, CellVariables
-from ..variables import STATES
+from ..variables import INPUTS, STATES
 from .hypotheses import PREFERENCE, Hypothesis, candidate_hypotheses
 from .library import Feature
-from .regression import GramSystem, _solve, bootstrap
+from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
 from .weak_form import EquationTest, WeakForm, equation_tests, estimate_noise
 
-__all__ = ["Candidate", "DiscoverySettings", "Round", "discover"]
+__all__ = [
+    "KEEP_LEVEL", "Candidate", "DiscoverySettings", "Round", "discover", "independent_columns", "naming_order",
+    "percentile_intervals", "weakest_term",
+]  # fmt: skip
 
-#: the relative change a property may take in a window's estimate: beyond it, it is not a correction
-PROPERTY_RANGE = (-0.5, 1.0)
+#: a term is kept only if its bootstrap interval at this level excludes zero (the findings
+#: report it and the 95 % interval, which lies inside it)
+KEEP_LEVEL = 0.99
+#: the relative change a property or an input's gain may take in a window's estimate: beyond
+#: it, it is not a correction
+RELATIVE_RANGE = (-0.5, 1.0)
+#: the kinds whose delta is a relative change
+RELATIVE = ("property", "input")
 
 
 @dataclass(frozen=True)
@@ -60,13 +71,15 @@ class DiscoverySettings:
     screen_keep: int = 8  # hypotheses that get a closed-form fit after screening (plus ties)
     min_screen: float = 0.05  # ... if a free delta along them explains at least this share
     refine_iterations: int = 8  # Gauss-Newton iterations
-    screen_bootstrap: int = 50  # resamples for stability selection of each fitted candidate
-    bootstrap: int = 200  # resamples for the chosen correction's intervals and inclusion frequencies
+    bootstrap: int = 200  # resamples that select each candidate's terms and give their intervals
     blocks_per_trajectory: int = 4  # bootstrap groups: each trajectory cut into this many blocks
     max_rounds: int = 3
     noise_draws: int = 8  # Monte Carlo draws for the residual's noise scale
     equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
     new_mechanism_margin: float = 0.05  # a new effect must gain this share more BIC than refining a named one
+    screen_trajectories: int = 8  # partial measurements: trajectories on which every hypothesis is scored first
+    partial_candidates: int = 4  # ... the best so many get a closed form, fitted and scored on all trajectories
+    walks: tuple[float, ...] = (0.3, 3.0)  # ... random-walk steps of a hypothesis' delta, in noise stds per window
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
 
 
@@ -81,10 +94,16 @@ class Candidate:
     explained: float = 0.0
     chi2_after: dict[str, float] = field(default_factory=dict)
     corrected: CellModel | None = None
+    inclusion: dict[str, float] = field(default_factory=dict)  # term -> share of resamples selecting it
+    samples: np.ndarray | None = None  # (resamples, terms) bootstrap coefficients around the refined values
 
     @property
     def formula(self) -> str:
         return Hypothesis.formula(self.features, self.coefficients)
+
+    def intervals(self, level: float) -> list[tuple[float, float]]:
+        """Each term's bootstrap interval at ``level`` (a percentile interval of ``samples``)."""
+        return percentile_intervals(self.samples, level)
 
 
 @dataclass
@@ -97,8 +116,6 @@ class Round:
     ranking: list[Candidate]
     chosen: Candidate | None
     equivalent: list[Candidate]
-    inclusion: dict[str, float]
-    intervals: list[tuple[float, float]]
     verdict: str
     rich: bool = False
     window: int = 0  # steps per weak-form window of this round's tests
@@ -193,7 +210,7 @@ def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int
     per_sample = np.zeros(problem.left_x.shape[:2])
     delta = np.zeros((n, a))
     shifted = model
-    iterated = h.kind in ("part", "property")  # a flow enters linearly: one step is exact
+    iterated = h.kind in ("part", *RELATIVE)  # a flow enters linearly: one step is exact
     for _ in range(iterations if iterated else 1):
         z = problem.standardised_residual(shifted)
         per_step = problem.sensitivity(h, shifted)
@@ -203,8 +220,8 @@ def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int
             (sensitivity * np.nan_to_num(z)).sum(-1), information, out=np.zeros_like(information), where=information > 0
         )
         delta += step
-        if h.kind == "property":  # a relative change; keep clear of the pole of a divided capacity
-            delta = np.clip(delta, *PROPERTY_RANGE)
+        if h.kind in RELATIVE:  # a relative change; keep clear of the pole of a divided capacity
+            delta = np.clip(delta, *RELATIVE_RANGE)
         per_sample[:, : a * problem.form.window] = np.repeat(delta, problem.form.window, axis=1)
         per_sample[:, a * problem.form.window :] = delta[:, -1:]
         shifted = h.shifted(model, per_sample)
@@ -213,8 +230,8 @@ def _measure(problem: _Problem, h: Hypothesis, model: CellModel, iterations: int
     if iterated:  # a window whose estimate has not settled (or sits at a bound) says nothing reliable
         typical = np.median(np.abs(delta)) + 1e-12
         unsettled = np.abs(step) > 1e-2 * (np.abs(delta) + typical)
-        if h.kind == "property":
-            unsettled |= (delta <= PROPERTY_RANGE[0]) | (delta >= PROPERTY_RANGE[1])
+        if h.kind in RELATIVE:
+            unsettled |= (delta <= RELATIVE_RANGE[0]) | (delta >= RELATIVE_RANGE[1])
         information = np.where(unsettled, 0.0, information)
     return delta, information, shifted, per_step
 
@@ -233,12 +250,12 @@ def _explain(problem: _Problem, h: Hypothesis, model: CellModel, measured, featu
     projected = np.einsum("nas,nasp->nap", sensitivity, design) / np.where(information > 0, information, 1)[..., None]
     weight = np.sqrt(information)[..., None]
     rows = (projected * weight).reshape(-1, len(features))
-    kept = _independent(rows)
+    kept = independent_columns(rows)
     system = GramSystem.from_design(rows[:, kept], (delta * weight[..., 0]).ravel(), problem.groups[::8])
     return system, kept
 
 
-def _independent(columns: np.ndarray, tolerance: float = 1e-8) -> list[int]:
+def independent_columns(columns: np.ndarray, tolerance: float = 1e-8) -> list[int]:
     """Indices of columns that are not zero and not (nearly) a multiple of an earlier one."""
     norms = np.linalg.norm(columns, axis=0)
     kept: list[int] = []
@@ -265,27 +282,60 @@ def _gauss_newton(problem: _Problem, h: Hypothesis, model: CellModel, features: 
 
 
 def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: DiscoverySettings, seed, rich: bool = False):
-    """Measure delta per window (stage 1), select a closed form by stability: the terms a
-    bootstrap of the forward selection picks in at least half the resamples and whose
-    coefficient's 99 % interval excludes zero (stage 2), then refine their coefficients on
-    the exact residual (stage 3).  Every hypothesis of a round resamples with the same ``seed``,
-    so that equivalent hypotheses (the same regression) get the same answer."""
+    """Measure delta per window (stage 1), select a closed form (stage 2) and refine it (stage 3),
+    with one bootstrap over blocks of trajectories for both what is kept and what is reported.
+
+    The terms forward selection picks in at least half the resamples are candidates; while any
+    kept term's :data:`KEEP_LEVEL` interval covers zero, the one most often on the other side
+    of zero is dropped and the rest refitted.  The coefficients are refined on the exact
+    residual (stage 3) and the intervals re-centred on them, and checked again.  Every
+    hypothesis of a round resamples with the same ``seed``, so that equivalent hypotheses (the
+    same regression) get the same answer."""
     rng = np.random.default_rng(seed)
     library = h.features(rich)
     system, kept = _explain(problem, h, model, _measure(problem, h, model, settings.refine_iterations), library)
-    selection = {"max_terms": settings.max_terms, "min_gain": settings.min_gain}
-    inclusion, _ = bootstrap(system, [], settings.screen_bootstrap, rng, **selection)
-    stable = [i for i in range(len(kept)) if inclusion[i] >= 0.5]
-    # ... and significant: a term whose 99 % interval covers zero is not reported as physics
-    # (stricter than the 95 % intervals reported, which use other resamples)
-    _, samples = bootstrap(system, stable, settings.screen_bootstrap, rng, **selection)
-    low, high = np.nanquantile(samples, [0.005, 0.995], axis=0) if stable else (np.zeros(0), np.zeros(0))
-    stable = [i for i, lo, hi in zip(stable, low, high, strict=True) if lo > 0 or hi < 0]
+    weights = resample_weights(len(system.zz), settings.bootstrap, rng)
+    inclusion = selection_frequency(system, weights, max_terms=settings.max_terms, min_gain=settings.min_gain)
+    terms = [i for i in range(len(kept)) if inclusion[i] >= 0.5]
     G, b, _, _ = system.total()
-    start = _solve(G, b, stable)
-    features = [library[kept[i]] for i in stable]
-    xi = _gauss_newton(problem, h, model, features, start, settings.refine_iterations)
-    return Candidate(h, features, xi), (system, [library[i] for i in kept])
+    refined = None
+    while True:
+        centre = _solve(G, b, terms)
+        spread = coefficient_samples(system, terms, weights) - centre  # resampled around the full-data fit
+        weakest = weakest_term(spread + (centre if refined is None else refined), KEEP_LEVEL)
+        if weakest is not None:
+            terms.pop(weakest)
+            refined = None
+        elif refined is None:
+            refined = _gauss_newton(problem, h, model, [library[kept[i]] for i in terms], centre,
+                                    settings.refine_iterations)  # fmt: skip
+        else:
+            break
+    names = [library[i].name for i in kept]
+    candidate = Candidate(
+        h, [library[kept[i]] for i in terms], refined,
+        inclusion={n: float(p) for n, p in zip(names, inclusion, strict=True) if p > 0}, samples=spread + refined,
+    )  # fmt: skip
+    return candidate
+
+
+def percentile_intervals(samples: np.ndarray, level: float) -> list[tuple[float, float]]:
+    """Each column's (resamples x terms) percentile interval at ``level``."""
+    low, high = np.quantile(samples, [(1 - level) / 2, (1 + level) / 2], axis=0)
+    return [(float(lo), float(hi)) for lo, hi in zip(low, high, strict=True)]
+
+
+def weakest_term(samples: np.ndarray, level: float) -> int | None:
+    """The term (column of ``samples``, resamples x terms) whose ``level`` interval covers zero
+    with the most resamples on the other side of zero from the median; None if no interval does."""
+    if not samples.shape[1]:
+        return None
+    low, high = np.quantile(samples, [(1 - level) / 2, (1 + level) / 2], axis=0)
+    covers = (low <= 0) & (high >= 0)
+    if not covers.any():
+        return None
+    across = np.mean(np.sign(samples) != np.sign(np.median(samples, axis=0)), axis=0)
+    return int(np.argmax(np.where(covers, across, -1.0)))
 
 
 def _score(
@@ -302,7 +352,7 @@ def _score(
     excess_before = sum(max(before[STATES[i]] - 1, 0) for i in flagged)
     excess_after = sum(max(after[STATES[i]] - 1, 0) for i in flagged)
     explained = 1 - excess_after / excess_before if excess_before > 0 else 0.0
-    return Candidate(h, features, xi, float(gain), float(explained), after, corrected)
+    return replace(candidate, bic_gain=float(gain), explained=float(explained), chi2_after=after, corrected=corrected)
 
 
 def _where(
@@ -327,13 +377,38 @@ def _where(
     return where
 
 
-def _simplicity(candidate: Candidate) -> tuple:
-    """Among equally good explanations: fewest terms, then an added flow before a part
-    correction before a property, then the most elementary (earliest computed) part or the
-    property listed first."""
-    h = candidate.hypothesis
-    order = {"part": list(PART_ORDER), "property": list(PROPERTIES)}.get(h.kind, [h.target])
-    return (len(candidate.features), PREFERENCE[h.kind], order.index(h.target))
+def _consequences(h: Hypothesis, reads: Mapping[str, frozenset[str]]) -> set[str]:
+    """The parts computed from what ``h`` corrects, directly or through other parts: from a
+    part, from an input, or from the constants a property rescales.  ``reads``: what each part
+    reads (:meth:`CellModel.reads`).  A flow added to a balance is computed from nothing."""
+    if h.kind == "property":
+        sources = set(PROPERTIES[h.target].exponents)
+    elif h.kind in ("part", "input"):
+        sources = {h.target}
+    else:
+        return set()
+    computed: set[str] = set()
+    for name in PART_ORDER:  # the computation order: one pass follows every chain
+        if reads[name] & (sources | computed):
+            computed.add(name)
+    return computed
+
+
+def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:
+    """Equally good explanations (items with a ``hypothesis``) in the order they are named: one
+    refining an effect named in an earlier round; then the cause before its consequences (a part
+    computed from another explanation's part, input or property comes after it); then fewest
+    terms (``terms(item)``); then an input before an added flow, a transfer, a part and a
+    property; then the earliest computed part (the order listed, for the other kinds)."""
+    downstream = set().union(*(_consequences(item.hypothesis, reads) for item in items))
+
+    def key(item) -> tuple:
+        h = item.hypothesis
+        order = {"part": PART_ORDER, "property": tuple(PROPERTIES), "input": INPUTS}.get(h.kind, (h.target,))
+        consequence = h.kind == "part" and h.target in downstream
+        return (h.key not in named, consequence, terms(item), PREFERENCE[h.kind], order.index(h.target))
+
+    return sorted(items, key=key)
 
 
 def discover_round(
@@ -352,7 +427,7 @@ def discover_round(
     flagged = [i for i, t in enumerate(tests) if t.flagged]
     if not flagged:
         return Round(
-            model, tests, {}, [], None, [], {}, [], "no equation disagrees with the data beyond noise", rich, window
+            model, tests, {}, [], None, [], "no equation disagrees with the data beyond noise", rich, window
         )
     hypotheses = candidate_hypotheses(model)
     screened = sorted(((problem.screen(h, model, z0, flagged), h) for h in hypotheses), key=lambda item: -item[0])
@@ -364,11 +439,9 @@ def discover_round(
             f"equations {[STATES[i] for i in flagged]} disagree beyond noise, but no hypothesis could remove "
             f"{settings.min_screen:.0%} of the excess residual even with a free value in every window"
         )
-        return Round(model, tests, _where(problem, model, z0, flagged), [], None, [], {}, [], verdict, rich, window)
+        return Round(model, tests, _where(problem, model, z0, flagged), [], None, [], verdict, rich, window)
     seed = rng.integers(2**63)
-    fitted = [_fit(problem, h, model, settings, seed, rich) for h in keep]
-    systems = {c.hypothesis.key: system for c, system in fitted}
-    ranking = [_score(problem, c, model, z0, flagged) for c, _ in fitted]
+    ranking = [_score(problem, _fit(problem, h, model, settings, seed, rich), model, z0, flagged) for h in keep]
     ranking.sort(key=lambda c: -c.bic_gain)
     best = ranking[0].bic_gain
     good = [
@@ -387,30 +460,14 @@ def discover_round(
             f"equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate explains it: the best, "
             f"{top.hypothesis.key}, removes {top.explained:.0%} of the excess residual"
         )
-        return Round(model, tests, where, ranking, None, [], {}, [], verdict, rich, window)
-    good.sort(key=lambda c: (c.hypothesis.key not in named, *_simplicity(c)))
-    chosen, equivalent = good[0], good[1:]
-    inclusion, intervals = _uncertainty(systems[chosen.hypothesis.key], chosen, settings, rng)
+        return Round(model, tests, where, ranking, None, [], verdict, rich, window)
+    with np.errstate(all="ignore"):
+        reads = model.reads(problem.left_x[:1, :1], problem.left_u[:1, :1])
+    chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
     verdict = (
         f"{chosen.hypothesis.describe(model)}; the correction removes {chosen.explained:.0%} of the excess residual"
     )
-    return Round(model, tests, where, ranking, chosen, equivalent, inclusion, intervals, verdict, rich, window)
-
-
-def _uncertainty(stage2, chosen: Candidate, settings: DiscoverySettings, rng):
-    """Bootstrap over blocks of trajectories of the stage-2 regression: how often each term is
-    re-selected, and 95 % intervals of the chosen terms' coefficients (shifted to the refined values)."""
-    system, features = stage2
-    names = [f.name for f in features]
-    index = [names.index(f.name) for f in chosen.features]
-    inclusion, samples = bootstrap(
-        system, index, settings.bootstrap, rng, max_terms=settings.max_terms, min_gain=settings.min_gain
-    )
-    G, b, _, _ = system.total()
-    centre = _solve(G, b, index)
-    samples = samples - centre + chosen.coefficients
-    intervals = [tuple(float(v) for v in np.nanquantile(samples[:, j], [0.025, 0.975])) for j in range(len(index))]
-    return {name: float(p) for name, p in zip(names, inclusion, strict=True) if p > 0}, intervals
+    return Round(model, tests, where, ranking, chosen, equivalent, verdict, rich, window)
 
 
 def _first_disagreeing_scale(model, x, u, dt, noise, settings: DiscoverySettings, rng) -> _Problem:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["discovery_summary"]
+__all__ = ["discovery_summary", "sensors_summary"]
 
 
 def discovery_summary(
@@ -26,7 +26,7 @@ def discovery_summary(
                 "case": f["case"],
                 "hidden": f.get("hidden", ""),
                 "expected_equations": " ".join(f.get("expected_equations", [])),
-                "flagged_equations": " ".join(f["flagged_equations"]),
+                "flagged_equations": " ".join(f.get("flagged_equations", f.get("flagged_channels", []))),
                 "named": " then ".join(n["hypothesis"] for n in named) or "nothing",
                 "correct": _correct(f),
                 "closed_form": " | ".join(n["closed_form"] for n in named),
@@ -54,3 +54,45 @@ def _correct(f) -> bool | None:
         and bool(f["named"])
         and f["named"][0] in f["accepted"]
     )
+
+
+def _verdict(f) -> str:
+    """What a run on a shipped case concluded, judged against what is hidden."""
+    named, accepted = f["named"], f.get("accepted", [])
+    flagged = f.get("flagged_equations", f.get("flagged_channels", []))
+    if named:
+        if named[0] in accepted:
+            return "named correctly"
+        return f"wrongly named ({named[0]})"
+    if f["outcome"].startswith("not identifiable"):
+        return "not identifiable"
+    if not accepted:
+        return "nothing, correctly" if not flagged else "disagreement without an explanation (false alarm)"
+    return "unexplained" if flagged else "not detected"
+
+
+def sensors_summary(findings_paths: Sequence[str | Path], sensors: Sequence[str], window: str = "long") -> pd.DataFrame:
+    """One row per shipped case and sensor set (``sensors`` in the order of ``findings_paths``)."""
+    rows = []
+    for path, sensor_set in zip(findings_paths, sensors, strict=True):
+        f = json.loads(Path(path).read_text())
+        errors = {(e["model"], e["window"]): e["error"] for e in f["gap"]["errors"]}
+        # a partial round's correction is there even when it could not be named
+        corrections = [c for r in f["rounds"] if (c := r.get("correction") or r.get("named"))]
+        rows.append(
+            {
+                "case": f["case"].split("/")[0],
+                "sensors": sensor_set,
+                "measured": " ".join(c["channel"] for c in f.get("channels", []) if c["status"] != "unmeasured"),
+                "flagged": " ".join(f.get("flagged_equations", f.get("flagged_channels", []))),
+                "verdict": _verdict(f),
+                "named": " then ".join(f["named"]) or "—",
+                "closed_form": " | ".join(c["closed_form"] for c in corrections),
+                "error_before": errors.get(("starting model", window)),
+                "error_after": errors.get(("corrected model", window), errors.get(("starting model", window))),
+                "noise_floor": f["gap"]["noise_floor"][window],
+                "shrink_above_noise_floor": f["gap"]["shrink_above_noise_floor"].get(window, 0.0),
+                "discovery_seconds": f["discovery_seconds"],
+            }
+        )
+    return pd.DataFrame(rows)

@@ -1,11 +1,13 @@
 """The aluminum cell model as a composition of named, replaceable parts."""
 
 from .cell import CellVariables
-from .model import BALANCES, BalanceTerm, CellModel, ablated_model, model_from_config, true_model
+from .model import BALANCES, BalanceTerm, CellModel, InputCorrection, ablated_model, model_from_config, true_model
 from .parameters import (
+    CONSTANTS,
     CellParameters,
     MaterialProperties,
     authors_code_parameters,
+    constants_table,
     paper_printed_parameters,
     parameters_from_config,
 )
@@ -14,12 +16,14 @@ from .properties import PROPERTIES, PhysicalProperty, PropertyCorrection
 
 __all__ = [
     "BALANCES",
+    "CONSTANTS",
     "PART_ORDER",
     "PROPERTIES",
     "BalanceTerm",
     "CellModel",
     "CellParameters",
     "CellVariables",
+    "InputCorrection",
     "MaterialProperties",
     "Part",
     "PhysicalProperty",
@@ -27,6 +31,7 @@ __all__ = [
     "ablated_model",
     "authors_code_parameters",
     "constant_part",
+    "constants_table",
     "model_from_config",
     "paper_printed_parameters",
     "parameters_from_config",

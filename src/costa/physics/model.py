@@ -14,16 +14,18 @@ Balances (paper numbering, q = the quantities computed by the parts, see
 
 Extra :class:`BalanceTerm` s add flows in physical units to any balance: kg/s to a
 mass balance, W to an energy balance; :class:`~costa.physics.properties.PropertyCorrection` s
-change a physical property that several constants share.  This is how hidden effects
-are made and how discovered corrections are put back.
+change a physical property that several constants share; :class:`InputCorrection` s say
+that an input reaching the cell is not the logged one (a feeder delivering 92 % of its
+command).  This is how hidden effects are made and how discovered corrections are put back.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
+from ..variables import INPUTS, MEANING
 from .cell import Array, CellVariables
 from .parameters import CellParameters, authors_code_parameters, parameters_from_config
 from .parts import (
@@ -40,6 +42,7 @@ __all__ = [
     "BALANCES",
     "BalanceTerm",
     "CellModel",
+    "InputCorrection",
     "ablated_model",
     "model_from_config",
     "true_model",
@@ -83,6 +86,38 @@ class BalanceTerm:
 
 
 @dataclass(frozen=True)
+class InputCorrection:
+    """The input that reaches the cell: ``input`` delivered = logged x (1 + fn(v)).
+
+    ``fn`` is a relative gain [-]; it reads the states and the logged inputs, and the
+    model uses the delivered input wherever it reads this one (every part and balance).
+    """
+
+    input: str
+    formula: str
+    fn: Callable[[CellVariables], Array]
+
+    def __post_init__(self):
+        if self.input not in INPUTS:
+            raise ValueError(f"unknown input {self.input!r}; known: {list(INPUTS)}")
+
+
+class _Recorder:
+    """Passes attribute and item reads through to ``target`` and records their names in ``seen``."""
+
+    def __init__(self, target, seen: set[str]):
+        self._target, self._seen = target, seen
+
+    def __getattr__(self, name: str):
+        self._seen.add(name)
+        return getattr(self._target, name)
+
+    def __getitem__(self, key: str):
+        self._seen.add(key)
+        return self._target[key]
+
+
+@dataclass(frozen=True)
 class CellModel:
     """A cell model: constants, one :class:`Part` per quantity, extra balance terms."""
 
@@ -91,12 +126,24 @@ class CellModel:
     parts: Mapping[str, Part]
     terms: tuple[BalanceTerm, ...] = field(default_factory=tuple)
     properties: tuple[PropertyCorrection, ...] = field(default_factory=tuple)
+    inputs: tuple[InputCorrection, ...] = field(default_factory=tuple)
 
     def __post_init__(self):
         if tuple(self.parts) != PART_ORDER:
             raise ValueError(f"model {self.name!r}: parts must be exactly {PART_ORDER} in order")
 
     # ----------------------------------------------------------- evaluation
+    def _variables(self, x: Array, u: Array) -> CellVariables:
+        """The cell variables with the inputs as delivered (where an input correction applies)."""
+        v = CellVariables(x, u)
+        if not self.inputs:
+            return v
+        columns = [v.u1, v.u2, v.u3, v.u4, v.u5]
+        for correction in self.inputs:
+            i = INPUTS.index(correction.input)
+            columns[i] = columns[i] * (1 + correction.fn(v))
+        return CellVariables(x, v.xp.stack(columns, axis=-1))
+
     def _parameters(self, v: CellVariables) -> CellParameters:
         """The constants at these samples: rescaled where a property correction applies."""
         if not self.properties:
@@ -134,16 +181,29 @@ class CellModel:
 
     def quantities(self, x: Array, u: Array) -> dict[str, Array]:
         """Every part's value at states x (..., 8) and inputs u (..., 5)."""
-        return self._evaluate(CellVariables(x, u))[1]
+        return self._evaluate(self._variables(x, u))[1]
+
+    def reads(self, x: Array, u: Array) -> dict[str, frozenset[str]]:
+        """What each part reads directly, recorded by evaluating it at states x and inputs u:
+        cell variables (``x6``, ``c2``, ``u2``, ...), constants (``k1``, ...) and earlier parts."""
+        v = self._variables(x, u)
+        k = self._parameters(v)
+        q: dict[str, Array] = {}
+        reads = {}
+        for name, part in self.parts.items():
+            seen: set[str] = set()
+            q[name] = part(_Recorder(v, seen), _Recorder(k, seen), _Recorder(q, seen))
+            reads[name] = frozenset(seen)
+        return reads
 
     def balance_flows(self, x: Array, u: Array) -> dict[str, Array]:
         """The net flow into each balance, in kg/s or W (before heat capacities)."""
-        v = CellVariables(x, u)
+        v = self._variables(x, u)
         return self._flows(v, *self._evaluate(v))
 
     def rhs(self, x: Array, u: Array) -> Array:
         """dx/dt (..., 8) in kg/s and degC/s."""
-        v = CellVariables(x, u)
+        v = self._variables(x, u)
         k, q = self._evaluate(v)
         f = self._flows(v, k, q)
         rates = [f[b] for b in ("ledge_mass", "alumina_mass", "alf3_mass", "cryolite_mass", "metal_mass")]
@@ -156,7 +216,7 @@ class CellModel:
 
     def state_rate_per_flow(self, x: Array, u: Array) -> Array:
         """d(dx_i/dt)/d(flow into balance i) (..., 8): 1 for masses, alpha/m, beta/x1, k17."""
-        v = CellVariables(x, u)
+        v = self._variables(x, u)
         one = v.xp.ones_like(v.x1)
         k = self._parameters(v)
         return v.xp.stack([one] * 5 + [k.alpha / v.m, k.beta / v.x1, k.k17 * one], axis=-1)
@@ -185,6 +245,12 @@ class CellModel:
             name=model_name or f"{self.name}+{correction.property.name}",
         )
 
+    def with_input(self, correction: InputCorrection, model_name: str | None = None) -> CellModel:
+        """This model with one input delivered differently from its log."""
+        return dataclasses.replace(
+            self, inputs=(*self.inputs, correction), name=model_name or f"{self.name}+{correction.input} delivered"
+        )
+
     def describe(self) -> str:
         """The model as readable equations, one quantity per line."""
         lines = [f"model {self.name}"]
@@ -195,6 +261,9 @@ class CellModel:
         for c in self.properties:
             scaled = ", ".join(f"{name}^{exponent:g}" for name, exponent in c.property.exponents.items())
             lines.append(f"  * {c.property.name} x (1 + {c.formula})   (rescales {scaled})")
+        for c in self.inputs:
+            gain = f"(1 + {c.formula})".replace("+ -", "- ")
+            lines.append(f"  {c.input} delivered = {c.input} x {gain}   ({MEANING[c.input]}, as logged)")
         return "\n".join(lines)
 
 
@@ -231,6 +300,6 @@ def ablated_model(base: CellModel | None = None, liquidus_temperature: float = 9
 
 def model_from_config(physics: Mapping) -> tuple[CellModel, CellModel]:
     """(true model, ablated PBM) from the ``physics`` section of the config."""
-    params = parameters_from_config(physics["constants"], physics.get("overrides"))
+    params = parameters_from_config(physics["constants"], physics.get("overrides"), physics.get("cell"))
     true = true_model(params, physics["equations"])
     return true, ablated_model(true, physics["ablated_liquidus_temperature"])

@@ -8,7 +8,12 @@ lists every difference and why the code's value is the default.
 
 Numbering follows the paper: k16 is the ambient temperature, k17 the inverse wall
 heat capacity, k18 the inverse wall-to-ambient heat transfer coefficient (the code
-calls these k19, k17 and k20).
+calls these k19, k17 and k20).  :data:`CONSTANTS` gives each constant's unit and
+meaning; :func:`constants_table` lists a cell's constants with where they come from.
+
+Your own cell: the config's ``physics.cell`` section sets the fields of
+:class:`MaterialProperties`, from which the constants are derived exactly as for
+the paper's cell; ``physics.overrides`` then replaces single constants.
 """
 
 from __future__ import annotations
@@ -18,10 +23,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import pandas as pd
+
 __all__ = [
+    "CONSTANTS",
     "CellParameters",
     "MaterialProperties",
     "authors_code_parameters",
+    "constants_table",
     "paper_printed_parameters",
     "parameters_from_config",
 ]
@@ -29,10 +38,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class MaterialProperties:
-    """Material and geometry data from which the code derives its constants.
+    """A cell's material and geometry data, from which the model's constants derive.
 
     Units: conductivities in W/(m K), lengths in m, heat transfer coefficients in
-    W/(m^2 K), areas in m^2, enthalpy in J/kg, heat capacities in J/(kg K).
+    W/(m^2 K), areas in m^2, density in kg/m^3, enthalpy in J/kg, specific heat
+    capacities in J/(kg K), the wall's heat capacity in J/K, temperatures in degC.
+    The defaults are the paper's cell; the authors' code gives k0, k16, k17, alpha
+    and beta as numbers, whose physical values are the last five fields (the
+    reciprocals are exact: 1 / (1 / 5.66e-4) == 5.66e-4 in float64).
     """
 
     ledge_conductivity: float = 2.5  # k_sl
@@ -44,14 +57,19 @@ class MaterialProperties:
     cryolite_fusion_enthalpy: float = 119495.0  # Delta_fus H_cry
     liquid_cryolite_heat_capacity: float = 1881.0  # c_p,cry,liq
     solid_cryolite_heat_capacity: float = 1320.0  # c_p,cry,s
+    ledge_density: float = 2790.178571428571  # rho_sl = 1 / (k0 A_sl) with the code's k0 = 2e-5
+    bath_heat_capacity: float = 1766.7844522968198  # c_p,bath = 1 / alpha, alpha = 5.66e-4
+    ledge_heat_capacity: float = 1319.2612137203166  # c_p,sl = 1 / beta, beta = 7.58e-4
+    wall_heat_capacity: float = 1666666.6666666667  # C_wall = 1 / k17, k17 = 6e-7
+    ambient_temperature: float = 35.0  # T_0 = k16
 
 
 @dataclass(frozen=True)
 class CellParameters:
     """The constants of the cell model (paper numbering).
 
-    Attributes carry the units of the terms they multiply; see the module
-    docstring of :mod:`costa.physics.balances` for their role in each equation.
+    Units and meanings are in :data:`CONSTANTS`; :mod:`costa.physics.parts` and
+    :mod:`costa.physics.model` show each constant's role in the equations.
     ``critical_alumina_percent`` is c_x2,crit in percent (2.2).
     """
 
@@ -93,12 +111,16 @@ class CellParameters:
 def authors_code_parameters(
     material: MaterialProperties = MaterialProperties(),
 ) -> CellParameters:
-    """The constants as the authors' simulator computes them (the default)."""
+    """The constants as the authors' simulator computes them (the default), for any cell's ``material``.
+
+    k3..k6 (the electrochemistry: consumption and production per ampere, the
+    alumina's impurity) do not depend on the cell and stay the code's numbers.
+    """
     m = material
     k1 = 2 * m.ledge_conductivity * m.ledge_area / m.cryolite_fusion_enthalpy
     k2 = m.bath_ledge_heat_transfer * m.ledge_area / m.cryolite_fusion_enthalpy
     return CellParameters(
-        k0=2e-5,
+        k0=1 / (m.ledge_density * m.ledge_area),
         k1=k1,
         k2=k2,
         k3=1.7e-7,
@@ -114,11 +136,11 @@ def authors_code_parameters(
         k13=k1 * m.solid_cryolite_heat_capacity,
         k14=m.wall_thickness / (2 * m.wall_conductivity),
         k15=1 / (2 * m.ledge_conductivity),
-        k16=35.0,
-        k17=6e-7,
+        k16=m.ambient_temperature,
+        k17=1 / m.wall_heat_capacity,
         k18=1 / m.wall_ambient_heat_transfer,
-        alpha=5.66e-4,
-        beta=7.58e-4,
+        alpha=1 / m.bath_heat_capacity,
+        beta=1 / m.ledge_heat_capacity,
     )
 
 
@@ -155,8 +177,72 @@ _PRESETS = {
 }
 
 
-def parameters_from_config(preset: str, overrides: Mapping[str, Any] | None = None) -> CellParameters:
-    """Build parameters from a preset name and optional per-constant overrides."""
+def parameters_from_config(
+    preset: str, overrides: Mapping[str, Any] | None = None, cell: Mapping[str, float] | None = None
+) -> CellParameters:
+    """Parameters from a preset name, a cell's material data (``authors_code`` only) and per-constant overrides."""
     if preset not in _PRESETS:
         raise ValueError(f"unknown parameter preset {preset!r}; known: {sorted(_PRESETS)}")
-    return _PRESETS[preset]().replace(**dict(overrides or {}))
+    material = MaterialProperties(**dict(cell or {}))
+    if preset == "authors_code":
+        params = authors_code_parameters(material)
+    elif material != MaterialProperties():
+        raise ValueError(
+            "physics.cell sets material data, but physics.constants = paper_printed takes the printed table as "
+            "it is; use constants: authors_code (derived from physics.cell) or physics.overrides"
+        )
+    else:
+        params = paper_printed_parameters()
+    return params.replace(**dict(overrides or {}))
+
+
+#: constant -> (unit, meaning, how it derives from MaterialProperties or "" if a fixed number)
+CONSTANTS: dict[str, tuple[str, str, str]] = {
+    "k0": ("m/kg", "ledge thickness per kg of ledge", "1 / (ledge_density ledge_area)"),
+    "k1": ("kg m/(s K)", "conduction from the freezing front into the ledge, over the fusion enthalpy",
+           "2 ledge_conductivity ledge_area / cryolite_fusion_enthalpy"),
+    "k2": ("kg/(s K)", "heat transfer from the bath to the ledge, over the fusion enthalpy",
+           "bath_ledge_heat_transfer ledge_area / cryolite_fusion_enthalpy"),
+    "k3": ("kg/(s A)", "Al2O3 consumed per ampere", ""),
+    "k4": ("kg/kg", "AlF3 neutralised per kg of Al2O3 fed (its Na2O impurity)", ""),
+    "k5": ("kg/kg", "cryolite formed per kg of Al2O3 fed", ""),
+    "k6": ("kg/(s A)", "metal produced per ampere", ""),
+    "k7": ("W/K^2", "sensible heat of the bath that freezes (bath side)", "k2 liquid_cryolite_heat_capacity"),
+    "k8": ("W m/K^2", "sensible heat of the bath that freezes (front side)", "k1 liquid_cryolite_heat_capacity"),
+    "k9": ("m^2", "side-ledge area", "ledge_area"),
+    "k10": ("m^2 K/W", "bath-ledge thermal resistance", "1 / bath_ledge_heat_transfer"),
+    "k11": ("m K/W", "half the ledge's thermal resistance per thickness", "1 / (2 ledge_conductivity)"),
+    "k12": ("W/K^2", "sensible heat of the ledge that forms (bath side)", "k2 solid_cryolite_heat_capacity"),
+    "k13": ("W m/K^2", "sensible heat of the ledge that forms (front side)", "k1 solid_cryolite_heat_capacity"),
+    "k14": ("m^2 K/W", "half the wall's thermal resistance", "wall_thickness / (2 wall_conductivity)"),
+    "k15": ("m K/W", "half the ledge's thermal resistance per thickness", "1 / (2 ledge_conductivity)"),
+    "k16": ("degC", "ambient temperature", "ambient_temperature"),
+    "k17": ("K/J", "inverse heat capacity of the wall", "1 / wall_heat_capacity"),
+    "k18": ("m^2 K/W", "wall-ambient thermal resistance", "1 / wall_ambient_heat_transfer"),
+    "alpha": ("kg K/J", "inverse specific heat capacity of the bath", "1 / bath_heat_capacity"),
+    "beta": ("kg K/J", "inverse specific heat capacity of the ledge", "1 / ledge_heat_capacity"),
+    "critical_alumina_percent": ("%", "alumina content of the anode effect (in g3)", ""),
+}  # fmt: skip
+
+
+def constants_table(physics: Mapping[str, Any]) -> pd.DataFrame:
+    """The constants of a config's ``physics`` section: constant, value, unit, meaning, source.
+
+    ``source`` is the derivation from ``physics.cell`` (constants: authors_code),
+    "override" (``physics.overrides``), "fixed" (a number of the authors' code) or
+    "printed" (constants: paper_printed).
+    """
+    overrides = physics.get("overrides") or {}
+    params = parameters_from_config(physics["constants"], overrides, physics.get("cell"))
+    derived = physics["constants"] == "authors_code"
+    rows = []
+    for name, value in params.as_dict().items():
+        unit, meaning, formula = CONSTANTS[name]
+        if name in overrides:
+            source = "override"
+        elif not derived:
+            source = "printed"
+        else:
+            source = formula or "fixed"
+        rows.append({"constant": name, "value": value, "unit": unit, "meaning": meaning, "source": source})
+    return pd.DataFrame(rows)

@@ -1,0 +1,106 @@
+"""A discovery run on partial, sparse measurements: from tables to rounds and the gap.
+
+The tables follow the data contract of :mod:`costa.data` (any channel may be absent or
+sampled at some steps only).  Channels sampled at every step get their noise from the
+data; a channel sampled less often needs its sensor's noise declared.  The gap is
+measured on the held-out trajectories' measured channels: each model is rolled out
+from the state it estimates from the first ``start_steps`` samples, and scored
+against what was measured after, beside the noise floor of the same procedure.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ..data import TrajectoryDataError, measured_trajectories
+from ..metrics import EvaluationSettings
+from ..physics import CellModel
+from .gap import measured_gap, measured_noise_floor
+from .partial import Observations, channel_noise
+from .partial_search import PartialRound, discover_partial
+from .search import DiscoverySettings
+
+__all__ = ["PartialResult", "observations", "run_partial_discovery"]
+
+
+@dataclass
+class PartialResult:
+    """What a run on partial measurements found; ``noise`` (C,) per measured channel."""
+
+    rounds: list[PartialRound]
+    channels: tuple[str, ...]
+    noise: np.ndarray
+    corrected: CellModel
+    gap: pd.DataFrame
+    per_state: pd.DataFrame  # per measured channel: model, window, channel, error
+    floor: dict[str, float]
+    seconds: float
+    windows: dict[str, tuple[int, int]]
+    dt: float
+    start_steps: int
+
+
+def observations(table: pd.DataFrame, declared_noise: Mapping[str, float], source: str) -> Observations:
+    """The measured channels of a checked table, with each channel's noise std."""
+    measured = measured_trajectories(table)
+    try:
+        noise = channel_noise(measured.values, measured.channels, declared_noise)
+    except ValueError as error:
+        raise TrajectoryDataError(f"{source}: {error}") from None
+    return Observations(measured.values, measured.inputs, measured.channels, noise, measured.dt)
+
+
+def run_partial_discovery(
+    train: pd.DataFrame,
+    held_out: pd.DataFrame,
+    start: CellModel,
+    settings: DiscoverySettings,
+    evaluation: EvaluationSettings,
+    declared_noise: Mapping[str, float],
+    source: str,
+    rng: np.random.Generator,
+) -> PartialResult:
+    """Discover on ``train``; the gap of the starting and corrected models on ``held_out``.
+
+    ``evaluation`` gives the gap's windows; the state a rollout starts from is estimated
+    from the first window's samples.
+    """
+    obs = observations(train, declared_noise, source)
+    held = observations(held_out, declared_noise, source)
+    if held.channels != obs.channels:
+        raise TrajectoryDataError(
+            f"{source}: the held-out trajectories measure {list(held.channels)}, the others {list(obs.channels)}"
+        )
+    if obs.y.shape[1] < 4 * settings.window + 1:
+        raise TrajectoryDataError(
+            f"{source}: trajectories of {obs.y.shape[1]} samples are too short; discovery needs at least "
+            f"{4 * settings.window + 1} (4 windows of discovery.window_steps = {settings.window})"
+        )
+    started = time.perf_counter()
+    rounds = discover_partial(start, obs, settings)
+    seconds = time.perf_counter() - started
+    corrected = next((r.corrected for r in reversed(rounds) if r.corrected is not None), start)
+    start_steps = min(stop for _, stop in evaluation.windows.values())
+    scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)
+    models = {"starting model": start} | ({"corrected model": corrected} if corrected is not start else {})
+    args = (held.y, held.u, held.channels, held.noise, held.dt, scale, evaluation, start_steps)
+    gap, per_channel = measured_gap(models, *args)
+    floor = measured_noise_floor(corrected, *args, rng)
+    return PartialResult(
+        rounds,
+        obs.channels,
+        obs.noise,
+        corrected,
+        gap,
+        per_channel,
+        floor,
+        seconds,
+        dict(evaluation.windows),
+        obs.dt,
+        start_steps,
+    )

@@ -1,0 +1,278 @@
+"""Discovery rounds on partial, sparse measurements: test the channels, rank, fit, correct, repeat.
+
+One round on the current model:
+
+1. the smoother's innovations of every measured channel are tested for variance, bias
+   and whiteness (:func:`.estimator.innovation_tests`); nothing flagged -> stop;
+2. every hypothesis gets a random-walk delta(t) in the smoother and is scored, on a few
+   trajectories, by the log-likelihood it gains (:func:`.partial.score_hypotheses`);
+   the best ``partial_candidates`` go on;
+3. each of those is smoothed on all trajectories, its delta(t) regressed on the physical
+   terms (:mod:`.library`) evaluated at the smoothed states, window by window, with one
+   bootstrap over blocks of trajectories for selection and intervals (a term is kept
+   only if its :data:`.search.KEEP_LEVEL` interval excludes zero), and the corrected
+   model scored by the BIC gain of its own likelihood of the measured channels, as the
+   full-data route scores a correction by its exact residual;
+4. corrections within ``equivalence`` BIC of the best explain the measured channels
+   equally well.  If they are the same physics (their effects on every state rate are
+   proportional: a flow into the bath's energy balance and the same change of the
+   electric power), the cause is named as on full data.  If not, the measurements
+   cannot tell them apart: the round says so, names none, lists them and says which
+   unmeasured channel would separate them; the best one still corrects the model for
+   forecasting, and goes into the next round.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..observe import observe
+from ..physics import CellModel
+from ..variables import CHANNELS
+from .estimator import ChannelTest, Smoothed, innovation_tests
+from .hypotheses import Hypothesis, candidate_hypotheses
+from .library import Feature
+from .observed import estimate_states
+from .partial import HypothesisScore, Observations, score_hypotheses, smooth_hypothesis
+from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
+from .search import KEEP_LEVEL, DiscoverySettings, independent_columns, naming_order, percentile_intervals, weakest_term
+
+__all__ = ["PartialRound", "discover_partial", "separating_channel"]
+
+
+@dataclass
+class PartialCandidate:
+    """A hypothesis with its smoothed delta, the closed form fitted to it and the corrected model's
+    score: ``bic_gain`` over the uncorrected model on the measured channels, ``explained`` the share
+    of the flagged channels' excess it removes."""
+
+    score: HypothesisScore
+    smoothed: Smoothed
+    features: list[Feature]
+    coefficients: np.ndarray
+    samples: np.ndarray  # bootstrap coefficients (resamples, terms)
+    inclusion: dict[str, float]
+    corrected: CellModel | None = None
+    tests_after: list[ChannelTest] = field(default_factory=list)
+    bic_gain: float = -np.inf
+    explained: float = 0.0
+
+    @property
+    def hypothesis(self) -> Hypothesis:
+        return self.score.hypothesis
+
+    @property
+    def formula(self) -> str:
+        return Hypothesis.formula(self.features, self.coefficients)
+
+    def intervals(self, level: float) -> list[tuple[float, float]]:
+        """Each kept term's bootstrap interval at ``level``."""
+        return percentile_intervals(self.samples, level)
+
+
+@dataclass
+class PartialRound:
+    """What one round on partial measurements found.
+
+    ``ranking``: the fitted candidates, best BIC gain first; ``equivalent``: those as good as
+    the chosen one; ``identifiable`` False when they are different physics (nothing is named
+    then, though ``chosen`` corrects the model); ``separated_by``: the unmeasured channel that
+    would tell them apart.
+    """
+
+    model: CellModel
+    tests: list[ChannelTest]
+    ranking: list[PartialCandidate]
+    chosen: PartialCandidate | None
+    equivalent: list[PartialCandidate]
+    identifiable: bool
+    separated_by: str | None
+    verdict: str
+
+    @property
+    def flagged(self) -> list[str]:
+        return [t.channel for t in self.tests if t.flagged]
+
+    @property
+    def named(self) -> Hypothesis | None:
+        return self.chosen.hypothesis if self.chosen is not None and self.identifiable else None
+
+    @property
+    def corrected(self) -> CellModel | None:
+        return self.chosen.corrected if self.chosen is not None else None
+
+
+def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
+    """Summed excess of the channels' innovations beyond white unit noise (variance and bias)."""
+    by_name = {t.channel: t for t in tests}
+    return sum(max(by_name[c].chi2_per_dof - 1, 0.0) + by_name[c].bias ** 2 for c in channels if c in by_name)
+
+
+def _same_physics(a: Hypothesis, b: Hypothesis, model: CellModel, x: np.ndarray, u: np.ndarray) -> bool:
+    """Whether two hypotheses change every state rate in proportion at every sample (the same
+    direction in state space): no measurement of the states could tell them apart."""
+    ja, jb = a.sensitivity(model, x, u), b.sensitivity(model, x, u)
+    scale = np.abs(np.concatenate([ja, jb])).reshape(-1, 8).max(0) + 1e-300
+    ja, jb = (ja / scale).reshape(-1, 8), (jb / scale).reshape(-1, 8)
+    cosine = np.abs((ja * jb).sum(-1)) / (np.linalg.norm(ja, axis=-1) * np.linalg.norm(jb, axis=-1) + 1e-300)
+    return bool(np.nanmin(cosine) > 0.999)
+
+
+def separating_channel(
+    histories: Sequence[np.ndarray], u: np.ndarray, model: CellModel, measured: Sequence[str]
+) -> str | None:
+    """The unmeasured channel on which the smoothed state histories (each (n, K, 8)) that equally
+    good explanations imply differ most, relative to the channel's spread: measuring it would
+    tell them apart."""
+    unmeasured = [c for c in CHANNELS if c not in measured]
+    if len(histories) < 2 or not unmeasured:
+        return None
+    with np.errstate(all="ignore"):
+        values = [observe(model, x, u, unmeasured).reshape(-1, len(unmeasured)) for x in histories]
+    spread = np.nanstd(values[0], axis=0) + 1e-12
+    difference = np.nanmax([np.nanmean(np.abs(v - values[0]), axis=0) for v in values[1:]], axis=0)
+    return unmeasured[int(np.nanargmax(difference / spread))]
+
+
+def _closed_form(
+    h: Hypothesis, model: CellModel, smoothed: Smoothed, obs: Observations, settings: DiscoverySettings, rng, rich: bool
+):
+    """Select and fit the terms of delta(t) (the smoothed delta, window means weighted by their
+    information) with one bootstrap for what is kept and what is reported."""
+    library = h.features(rich)
+    x, delta, std = smoothed.mean[..., :8], smoothed.mean[..., 8], smoothed.std[..., 8]
+    n, steps = delta.shape
+    window = settings.window
+    a = steps // window
+    cut = a * window
+    theta = np.concatenate(
+        [h.feature_values(model, library, x[i : i + 1, :cut], obs.u[i : i + 1, :cut]) for i in range(n)]
+    )
+    means = theta.reshape(n, a, window, -1).mean(2)
+    target = delta[:, :cut].reshape(n, a, window).mean(2)
+    weight = 1.0 / np.sqrt(np.maximum((std[:, :cut] ** 2).reshape(n, a, window).mean(2), 1e-300))
+    rows = np.nan_to_num(means * weight[..., None]).reshape(-1, len(library))
+    independent = independent_columns(rows)  # a constant part's own value duplicates the constant term
+    library, rows = [library[i] for i in independent], rows[:, independent]
+    per_block = max(1, int(np.ceil(a / settings.blocks_per_trajectory)))
+    groups = (np.arange(n)[:, None] * settings.blocks_per_trajectory + np.arange(a)[None, :] // per_block).ravel()
+    system = GramSystem.from_design(rows, np.nan_to_num(target * weight).ravel(), groups)
+    weights = resample_weights(len(system.zz), settings.bootstrap, rng)
+    inclusion = selection_frequency(system, weights, max_terms=settings.max_terms, min_gain=settings.min_gain)
+    terms = [i for i in range(len(library)) if inclusion[i] >= 0.5]
+    G, b, _, _ = system.total()
+    while (weakest := weakest_term(samples := coefficient_samples(system, terms, weights), KEEP_LEVEL)) is not None:
+        terms.pop(weakest)
+    inclusion_by_name = {f.name: float(p) for f, p in zip(library, inclusion, strict=True) if p > 0}
+    return [library[i] for i in terms], _solve(G, b, terms), samples, inclusion_by_name
+
+
+def _tests(model: CellModel, obs: Observations, settings: DiscoverySettings) -> tuple[list[ChannelTest], Smoothed]:
+    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt)
+    return innovation_tests(smoothed.innovation, obs.channels, settings.z_threshold, settings.min_excess), smoothed
+
+
+def _fit(
+    score: HypothesisScore,
+    model: CellModel,
+    obs: Observations,
+    settings: DiscoverySettings,
+    seed,
+    rich: bool,
+    tests: list[ChannelTest],
+    base_likelihood: float,
+) -> PartialCandidate:
+    """Smooth one hypothesis on every trajectory, fit its closed form, score the corrected model.
+    Every candidate of a round resamples with the same ``seed``."""
+    smoothed = smooth_hypothesis(model, score, obs, settings.window)
+    features, coefficients, samples, inclusion = _closed_form(
+        score.hypothesis, model, smoothed, obs, settings, np.random.default_rng(seed), rich
+    )
+    candidate = PartialCandidate(score, smoothed, features, coefficients, samples, inclusion)
+    if not features:
+        return candidate
+    corrected = score.hypothesis.corrected(model, features, coefficients)
+    tests_after, after = _tests(corrected, obs, settings)
+    likelihood = float(after.log_likelihood.sum())
+    samples_measured = int(np.isfinite(obs.y).sum())
+    flagged = [t.channel for t in tests if t.flagged]
+    candidate.corrected, candidate.tests_after = corrected, tests_after
+    if np.isfinite(likelihood):
+        candidate.bic_gain = 2 * (likelihood - base_likelihood) - len(features) * np.log(samples_measured)
+    candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
+    return candidate
+
+
+def discover_round(
+    model: CellModel,
+    obs: Observations,
+    settings: DiscoverySettings,
+    rng: np.random.Generator,
+    rich: bool = False,
+    named: Sequence[str] = (),
+) -> PartialRound:
+    """One round on the current model (see the module docstring); ``named``: what earlier rounds named."""
+    tests, base = _tests(model, obs, settings)
+    flagged = [t.channel for t in tests if t.flagged]
+    if not flagged:
+        return PartialRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
+    few = obs.subset(slice(0, settings.screen_trajectories))
+    screened, _ = score_hypotheses(model, candidate_hypotheses(model), few, settings.window, settings.walks)
+    cut = screened[min(settings.partial_candidates, len(screened)) - 1].log_likelihood_gain if screened else np.inf
+    seed = rng.integers(2**63)
+    base_likelihood = float(base.log_likelihood.sum())
+    ranking = [
+        _fit(s, model, obs, settings, seed, rich, tests, base_likelihood)
+        for s in screened
+        if s.log_likelihood_gain >= cut and s.log_likelihood_gain > 0
+    ]
+    ranking.sort(key=lambda c: -c.bic_gain)
+    good = [c for c in ranking if c.features and c.bic_gain >= ranking[0].bic_gain - settings.equivalence]
+    if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
+        best = (
+            f"the best, {ranking[0].hypothesis.key}, removes {ranking[0].explained:.0%} of the excess"
+            if ranking
+            else ""
+        )
+        verdict = f"channels {flagged} disagree beyond noise, but no candidate explains them" + (
+            f": {best}" if best else ""
+        )
+        return PartialRound(model, tests, ranking, None, [], True, None, verdict)
+    x = base.mean[..., :8]
+    reads = model.reads(x[:1, :1], obs.u[:1, :1])
+    chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
+    different = [
+        c for c in equivalent if not _same_physics(c.hypothesis, chosen.hypothesis, model, x[:, ::16], obs.u[:, ::16])
+    ]
+    separated = None
+    if different:
+        histories = [c.smoothed.mean[..., :8] for c in [chosen, *different]]
+        separated = separating_channel(histories, obs.u, model, obs.channels)
+    if different:
+        keys = ", ".join(c.hypothesis.key for c in [chosen, *different])
+        what = f"not identifiable with these measurements: {keys} explain the measured channels equally well"
+        what += f"; measuring {separated} would separate them" if separated else ""
+    else:
+        what = chosen.hypothesis.describe(model)
+    verdict = f"{what}; the correction removes {chosen.explained:.0%} of the flagged channels' excess"
+    return PartialRound(model, tests, ranking, chosen, equivalent, not different, separated, verdict)
+
+
+def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySettings) -> list[PartialRound]:
+    """Rounds until no channel disagrees, nothing explains it, a correction explains too little,
+    or ``max_rounds``."""
+    rng = np.random.default_rng(settings.seed)
+    rounds: list[PartialRound] = []
+    current, rich = model, False
+    for _ in range(settings.max_rounds):
+        named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
+        found = discover_round(current, obs, settings, rng, rich, named)
+        rounds.append(found)
+        if found.chosen is None:
+            break
+        current = found.corrected
+        rich = any(t.flagged for t in found.chosen.tests_after)
+    return rounds

@@ -1,0 +1,29 @@
+"""What a model predicts for each measurement channel of the data contract (:mod:`costa.data`).
+
+A state channel x1..x8 is the state itself; ``U_cell`` is the model's cell voltage U
+(the part ``cell_voltage``, V); ``c2`` and ``c3`` are the bath's Al2O3 and AlF3 mass
+fractions x2/m and x3/m with m = x2 + x3 + x4.  A model with a corrected voltage
+part predicts its corrected voltage.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .physics import CellModel, CellVariables
+from .variables import CHANNELS, STATES
+
+__all__ = ["observe"]
+
+
+def observe(model: CellModel, x: np.ndarray, u: np.ndarray, channels: Sequence[str]) -> np.ndarray:
+    """The channels' values (..., C) at states x (..., 8) and inputs u (..., 5), in the data's units."""
+    unknown = [c for c in channels if c not in CHANNELS]
+    if unknown:
+        raise ValueError(f"unknown channel(s) {unknown}; known: {list(CHANNELS)}")
+    v = CellVariables(x, u)
+    voltage = model.quantities(x, u)["cell_voltage"] if "U_cell" in channels else None
+    derived = {"U_cell": voltage, "c2": v.c2, "c3": v.c3}
+    return np.stack([x[..., STATES.index(c)] if c in STATES else derived[c] for c in channels], axis=-1)

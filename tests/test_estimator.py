@@ -1,0 +1,93 @@
+"""The Kalman smoother against exact answers: on a linear Gaussian model it must equal conditioning
+the joint Gaussian of all states and measurements directly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import multivariate_normal
+
+from costa.discover.estimator import StateSpaceModel, innovation_tests, smooth
+
+
+def _linear_system(rng):
+    a = np.array([[0.95, 0.1, 0.0], [0.0, 0.9, 0.05], [0.0, 0.0, 1.0]])  # the third state is a random walk
+    b = np.array([[0.5], [0.0], [0.0]])
+    h = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]])
+    model = StateSpaceModel(
+        transition=lambda z, u: z @ a.T + u @ b.T,
+        observe=lambda z, u: z @ h.T,
+        process_std=np.array([0.1, 0.2, 0.05]),
+        noise_std=np.array([0.3, 0.2]),
+        scale=np.ones(3),
+    )
+    return model, a, b, h
+
+
+def _exact(model, a, b, h, y, u, mean0, cov0):
+    """Posterior means of all states and the log density of the measured values, by brute force."""
+    steps, size = y.shape[0], a.shape[0]
+    q, r = np.diag(model.process_std**2), np.diag(model.noise_std**2)
+    # z_k = A^k z0 + sum_j A^(k-1-j) (B u_j + w_j): states as a linear map of (z0, w_0..w_{K-2})
+    mean = np.zeros((steps, size))
+    maps = np.zeros((steps, size, size * steps))
+    mean[0], maps[0][:, :size] = mean0, np.eye(size)
+    for k in range(1, steps):
+        mean[k] = a @ mean[k - 1] + b @ u[k - 1]
+        maps[k] = a @ maps[k - 1]
+        maps[k][:, size * k : size * (k + 1)] = np.eye(size)
+    sources = np.zeros((size * steps, size * steps))
+    sources[:size, :size] = cov0
+    for k in range(1, steps):
+        sources[size * k : size * (k + 1), size * k : size * (k + 1)] = q
+    z_cov = np.einsum("kip,pq,ljq->kilj", maps, sources, maps).reshape(steps * size, steps * size)
+    big_h = np.kron(np.eye(steps), h)
+    y_cov = big_h @ z_cov @ big_h.T + np.kron(np.eye(steps), r)
+    measured = np.isfinite(y.ravel())
+    y_mean = big_h @ mean.ravel()
+    cross = z_cov @ big_h.T[:, measured]
+    solve = np.linalg.solve(y_cov[np.ix_(measured, measured)], (y.ravel() - y_mean)[measured])
+    posterior = mean.ravel() + cross @ solve
+    posterior_cov = z_cov - cross @ np.linalg.solve(y_cov[np.ix_(measured, measured)], cross.T)
+    log_density = multivariate_normal(y_mean[measured], y_cov[np.ix_(measured, measured)]).logpdf(y.ravel()[measured])
+    return posterior.reshape(steps, size), np.sqrt(np.diag(posterior_cov)).reshape(steps, size), log_density
+
+
+def test_smoother_equals_conditioning_the_joint_gaussian_with_missing_samples():
+    rng = np.random.default_rng(7)
+    model, a, b, h = _linear_system(rng)
+    n, steps = 3, 12
+    u = rng.normal(size=(n, steps, 1))
+    y = rng.normal(size=(n, steps, 2))
+    y[:, ::3, 0] = np.nan  # channel 0 missing every third step
+    y[1, 4:9, :] = np.nan  # a gap in both channels
+    y[2, :, 1] = np.nan  # a channel never measured in one trajectory
+    mean0 = rng.normal(size=(n, 3))
+    cov0 = np.diag([1.0, 2.0, 0.5])
+    result = smooth(model, y, u, mean0, cov0)
+    for i in range(n):
+        mean, std, log_density = _exact(model, a, b, h, y[i], u[i], mean0[i], cov0)
+        np.testing.assert_allclose(result.mean[i], mean, rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(result.std[i], std, rtol=1e-5, atol=1e-6)
+        assert result.log_likelihood[i] == pytest.approx(log_density, rel=1e-8)
+    assert np.isnan(result.innovation[2, :, 1]).all() and np.isfinite(result.innovation[0, 1:3]).all()
+
+
+def test_innovations_of_the_true_model_pass_and_a_wrong_model_is_flagged():
+    rng = np.random.default_rng(3)
+    model, a, b, h = _linear_system(rng)
+    n, steps = 20, 300
+    u = rng.normal(size=(n, steps, 1))
+    z = np.zeros((n, steps, 3))
+    for k in range(1, steps):
+        z[:, k] = z[:, k - 1] @ a.T + u[:, k - 1] @ b.T + rng.normal(size=(n, 3)) * model.process_std
+    y = z @ h.T + rng.normal(size=(n, steps, 2)) * model.noise_std
+    y[:, 1::2, 1] = np.nan  # the second channel every other step
+    prior = (np.zeros((n, 3)), np.eye(3))
+    right = innovation_tests(smooth(model, y, u, *prior).innovation, ["first", "second"])
+    assert not any(t.flagged for t in right)
+    assert all(abs(t.chi2_per_dof - 1) < 0.1 for t in right)
+    # the model misses the input's effect: the first channel's innovations follow u
+    wrong = StateSpaceModel(lambda z, u: z @ a.T, model.observe, model.process_std, model.noise_std, model.scale)
+    tests = {t.channel: t for t in innovation_tests(smooth(wrong, y, u, *prior).innovation, ["first", "second"])}
+    assert tests["first"].flagged and tests["first"].chi2_per_dof > 1.5

@@ -1,0 +1,123 @@
+"""Your own data and your own cell: data of any length, the gap's windows, the worked example."""
+
+from __future__ import annotations
+
+import copy
+import importlib.util
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import REPOSITORY
+
+from costa.config import load_config
+from costa.data import TrajectoryDataError, load_trajectories
+from costa.discover.findings import findings, findings_markdown
+from costa.discover.pipeline import gap_settings, run_discovery, split_held_out, starting_model
+
+EXAMPLE = REPOSITORY / "examples" / "own-cell"
+
+
+@pytest.fixture(scope="module")
+def example_config() -> dict:
+    return load_config(REPOSITORY / "config" / "config.yaml", EXAMPLE / "config.yaml")
+
+
+def _user(config: dict, **user) -> dict:
+    config = copy.deepcopy(config)
+    config["discovery"]["user_data"] = {**config["discovery"]["user_data"], **user}
+    return config
+
+
+def test_the_gap_windows_of_your_data_are_fractions_of_its_length(example_config):
+    """The paper's proportions at any length; the paper's windows at 5000 steps; the evaluation section unused."""
+    assert example_config["evaluation"]["windows"]["long"] == [2500, 5000]  # the paper's, untouched
+    assert dict(gap_settings(example_config, "cell", 400).windows) == {
+        "short": (0, 8), "medium": (8, 200), "long": (200, 400),
+    }  # fmt: skip
+    paper = gap_settings(example_config, "cell", 5000)
+    assert dict(paper.windows) == {"short": (0, 100), "medium": (100, 2500), "long": (2500, 5000)}
+    assert dict(paper.horizons) == {"short": 100, "medium": 2500, "long": 5000}
+    own = _user(example_config, gap_windows={"short": [0, 0.1], "medium": [0.1, 0.6], "long": [0.6, 1.0]})
+    assert dict(gap_settings(own, "cell", 400).windows) == {"short": (0, 40), "medium": (40, 240), "long": (240, 400)}
+
+
+def test_a_shipped_case_keeps_the_evaluation_windows(smoke_config):
+    assert dict(gap_settings(smoke_config, "paper_liquidus", 400).windows) == {
+        "short": (0, 20), "medium": (20, 200), "long": (200, 400),
+    }  # fmt: skip
+
+
+def test_a_gap_window_empty_at_this_length_is_named(example_config):
+    with pytest.raises(TrajectoryDataError, match=r"user_data.gap_windows: window 'short' = \[0, 0.02\) of 20 steps"):
+        gap_settings(example_config, "cell", 20)
+
+
+def test_bad_gap_windows_in_the_config_are_named():
+    from costa.config import ConfigError
+
+    user = {"path": "x.csv", "gap_windows": {"short": [0, 0.1], "medium": [0.5, 0.2], "long": [0.5, 1]}}
+    with pytest.raises(ConfigError, match=r"gap_windows.medium = \[0.5, 0.2\)"):
+        load_config(overrides={"discovery": {"user_data": user}})
+    with pytest.raises(ConfigError, match="gap_windows"):
+        load_config(overrides={"discovery": {"user_data": {"path": "x.csv", "gap_windows": {"long": [0, 1]}}}})
+
+
+def test_discovery_on_a_sparse_table_stops_with_one_clear_error(example_config, tmp_path):
+    table = pd.read_csv(EXAMPLE / "cell.csv")
+    table["x7"] = table.x7.where(np.arange(len(table)) % 30 == 0)
+    path = tmp_path / "sparse.csv"
+    table.drop(columns=["x2"]).to_csv(path, index=False)
+    train, held_out = split_held_out(path, 0.34)  # splitting works on any table of the contract
+    with pytest.raises(
+        TrajectoryDataError,
+        match=r"sparse.csv: discovery needs every state x1..x8 measured at every step, but x2 \(Al2O3 mass\) is "
+        r"absent; x7 \(side-ledge temperature\) has 80 of 2400 steps",
+    ):
+        run_discovery(example_config, train, held_out, starting_model(example_config, "full"), "cell", str(path))
+
+
+def test_the_worked_example_finds_the_heat_loss_of_400_step_data(example_config):
+    """6 x 400 steps of another cell with a heat loss through the top the model lacks (make_data.py)."""
+    user = example_config["discovery"]["user_data"]
+    train, held_out = split_held_out(REPOSITORY / user["path"], user["held_out_fraction"])
+    assert train.trajectory.nunique() == 4 and held_out.trajectory.nunique() == 2
+    start = starting_model(example_config, "full")
+    assert start.params.k9 == 21.5 and start.params.k16 == 30.0  # the example's cell
+    result = run_discovery(example_config, train, held_out, start, "cell", user["path"])
+    found = findings(result, "cell", start, {"data": "x"})
+    assert found["flagged_equations"] == ["x6"] and found["named"][0] == "term:bath_energy"
+    coefficient = found["rounds"][0]["named"]["coefficients"][0]["value"]
+    assert -22.0 * (990 - 30) < coefficient < -22.0 * (950 - 30)  # the true loss at bath temperatures 950-990 degC
+    assert found["gap"]["windows"] == {"short": [0, 8], "medium": [8, 200], "long": [200, 400]}
+    assert found["gap"]["shrink_above_noise_floor"]["long"] > 0.8
+    assert "short [0, 8) = 0-80 s" in findings_markdown(found)
+
+
+def test_the_example_data_are_what_the_documented_script_makes(tmp_path):
+    spec = importlib.util.spec_from_file_location("make_data", EXAMPLE / "make_data.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(tmp_path / "cell.csv")
+    assert (tmp_path / "cell.csv").read_bytes() == (EXAMPLE / "cell.csv").read_bytes()
+    assert load_trajectories(tmp_path / "cell.csv").shape == (6 * 400, 16)
+
+
+def test_the_worked_example_runs_from_the_readme_command(tmp_path):
+    """`snakemake --cores 2 results/own-cell/discovery/cell/findings.json --configfile examples/own-cell/config.yaml`."""
+    from test_workflow import snakemake
+
+    (tmp_path / "examples" / "own-cell").mkdir(parents=True)
+    (tmp_path / "examples" / "own-cell" / "cell.csv").write_bytes((EXAMPLE / "cell.csv").read_bytes())
+    targets = ["results/own-cell/discovery/cell/findings.json", "results/own-cell/cell_constants.csv"]
+    snakemake(tmp_path, *targets, "--configfile", str(EXAMPLE / "config.yaml"))
+    found = json.loads((tmp_path / targets[0]).read_text())
+    assert found["named"][0] == "term:bath_energy" and found["gap"]["windows"]["long"] == [200, 400]
+    assert {c["channel"]: c["status"] for c in found["channels"]}["x6"] == "every step"
+    assert {c["constant"]: c["value"] for c in found["constants"]}["k9"] == 21.5
+    markdown = (tmp_path / "results/own-cell/discovery/cell/findings.md").read_text()
+    assert "docs/glossary.md" in markdown and "x6 (bath temperature, degC): 2400 samples" in markdown
+    constants = pd.read_csv(tmp_path / targets[1]).set_index("constant")
+    assert constants.loc["k16", "value"] == 30.0 and constants.loc["k14", "value"] == 0.12 / (2 * 8.0)
+    assert not (tmp_path / "results" / "discovery").exists()  # under the example's own results folder

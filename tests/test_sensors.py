@@ -1,0 +1,79 @@
+"""Sensor sets turn a simulated truth into what a plant logs; the estimator recovers what nobody measured."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from costa.discover.cases import add_noise
+from costa.discover.estimator import innovation_tests
+from costa.discover.observed import estimate_states
+from costa.observe import observe
+from costa.physics import ablated_model, true_model
+from costa.sensors import CHANNELS, Sensor, SensorSet, measure, sensor_sets_from_config
+from costa.simulate import simulate_set
+from costa.variables import STATES
+
+
+@pytest.fixture(scope="module")
+def truth(settings):
+    trajectories, _ = simulate_set(true_model(), dataclasses.replace(settings, steps=1200), 4, 11, 0, "sensors")
+    return trajectories.x, trajectories.u
+
+
+def test_sampling_intervals_noise_and_absent_channels(truth):
+    x, u = truth
+    sensors = SensorSet(
+        "plant", (Sensor("U_cell", 10.0, 0.005), Sensor("x6", 3600.0, 1.5), Sensor("c3", 1800.0, 0.002))
+    )
+    table = measure(true_model(), x, u, 10.0, sensors, np.random.default_rng(0))
+    assert set(STATES) & set(table.columns) == {"x6"} and {"u1", "u5", "time_s"} <= set(table.columns)
+    x6 = table["x6"].to_numpy().reshape(4, -1)
+    for row in x6:
+        times = np.flatnonzero(np.isfinite(row))
+        assert len(times) in (3, 4) and (np.diff(times) == 360).all()  # hourly: every 360 steps of 10 s
+    phases = {int(np.flatnonzero(np.isfinite(row))[0]) for row in x6}
+    assert len(phases) > 1  # hand samples at another minute in each cell
+    voltage = table["U_cell"].to_numpy().reshape(4, -1)
+    exact = observe(true_model(), x, u, ["U_cell"])[..., 0]
+    assert np.std(voltage - exact) == pytest.approx(0.005, rel=0.05)
+    assert np.isfinite(voltage).all()
+
+
+def test_the_full_set_reproduces_noise_added_to_every_state(truth):
+    x, u = truth
+    level = 0.01
+    full = SensorSet("full", tuple(Sensor(s, 10.0) for s in STATES))
+    default = dict(zip(STATES, level * x.reshape(-1, 8).std(0), strict=True))
+    table = measure(true_model(), x, u, 10.0, full, np.random.default_rng(5), default)
+    expected = add_noise(x, level, np.random.default_rng(5))
+    np.testing.assert_array_equal(table[list(STATES)].to_numpy().reshape(x.shape), expected)
+
+
+def test_config_sets_and_unknown_channels():
+    sets = sensor_sets_from_config({"p": {"hours": 48, "channels": {"U_cell": {"every_s": 10, "noise": 0.005}}}})
+    assert sets["p"].channels == ("U_cell",) and sets["p"].steps(10.0, 5000) == 17280
+    with pytest.raises(ValueError, match="unknown channel 'x9'"):
+        Sensor("x9", 10.0, 1.0)
+    assert CHANNELS[-3:] == ("U_cell", "c2", "c3")
+
+
+def test_unmeasured_ledge_is_recovered_and_a_wrong_model_is_flagged(truth):
+    """Partial sensors (no ledge mass, ledge temperature or masses): under the true model the
+    smoother finds the unmeasured initial ledge within a few of its stds and no channel
+    disagrees; under the ablated PBM (liquidus fixed) the bath temperature does."""
+    x, u = truth
+    x, u = x[:, :600], u[:, :600]
+    channels = ("x5", "x6", "x8", "U_cell", "c2", "c3")
+    noise = 0.01 * observe(true_model(), x, u, channels).reshape(-1, 6).std(0)
+    sensors = SensorSet("partial", tuple(Sensor(c, 10.0, float(s)) for c, s in zip(channels, noise, strict=True)))
+    table = measure(true_model(), x, u, 10.0, sensors, np.random.default_rng(2))
+    y = table[list(channels)].to_numpy().reshape(*x.shape[:2], 6)
+    right = estimate_states(true_model(), y, u, channels, noise, 10.0)
+    error = np.abs(right.mean[:, 0] - x[:, 0]) / right.std[:, 0]
+    assert np.median(error[:, [0, 6]]) < 3 and (np.abs(right.mean[:, 0, 0] - x[:, 0, 0]) < 100).all()
+    assert not any(t.flagged for t in innovation_tests(right.innovation, channels))
+    wrong = innovation_tests(estimate_states(ablated_model(), y, u, channels, noise, 10.0).innovation, channels)
+    assert {t.channel for t in wrong if t.flagged} >= {"x6"}

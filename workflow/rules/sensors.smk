@@ -1,0 +1,78 @@
+rule discovery_sensor_data:
+    """Simulate a shipped case and measure it with one sensor set (discovery.sensor_sets):
+    each channel at its own interval and noise, the rest unmeasured."""
+    input:
+        code=DISCOVERY_CODE + package_files("sensors.py"),
+    output:
+        train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
+        held_out=out("discovery/{case}/sensors/{sensors}/data/held_out.parquet"),
+    log:
+        out("discovery/{case}/sensors/{sensors}/logs/data.log"),
+    benchmark:
+        out("discovery/{case}/sensors/{sensors}/benchmarks/data.tsv")
+    wildcard_constraints:
+        case="|".join(SHIPPED_CASES) or "^$",
+        sensors="|".join(config["discovery"]["sensor_sets"]),
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=discovery_config,
+    script:
+        "../scripts/discovery_case_data.py"
+
+
+rule discover_with_sensors:
+    """Discovery on what one sensor set measures: the estimator's channel tests, the named (or
+    not identifiable) effect, its closed form, and the gap on the measured channels."""
+    input:
+        train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
+        held_out=out("discovery/{case}/sensors/{sensors}/data/held_out.parquet"),
+        code=DISCOVERY_CODE + package_files("sensors.py"),
+    output:
+        findings=out("discovery/{case}/sensors/{sensors}/findings.json"),
+        markdown=out("discovery/{case}/sensors/{sensors}/findings.md"),
+        gap=out("discovery/{case}/sensors/{sensors}/gap.parquet"),
+        per_state=out("discovery/{case}/sensors/{sensors}/per_channel_errors.parquet"),
+    log:
+        out("discovery/{case}/sensors/{sensors}/logs/discover.log"),
+    benchmark:
+        out("discovery/{case}/sensors/{sensors}/benchmarks/discover.tsv")
+    wildcard_constraints:
+        case="|".join(SHIPPED_CASES) or "^$",
+        sensors="|".join(config["discovery"]["sensor_sets"]),
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=6000,
+    params:
+        config=discovery_config,
+        meta=sensor_meta,
+        starting_model=starting_model_name,
+        name=lambda wildcards: f"{wildcards.case}/{wildcards.sensors}",
+        declared_noise=declared_noise,
+    script:
+        "../scripts/discover.py"
+
+
+rule collect_sensors:
+    """The shipped cases under every sensor set: what was named, its closed form, the gap."""
+    input:
+        findings=[sensor_findings(case, s) for case in SHIPPED_CASES for s in SENSOR_SETS],
+        code=package_files("discover"),
+    output:
+        summary=report(
+            out("discovery/sensors.csv"),
+            category="Discovery",
+            caption="../report/captions/discovery_sensors.rst",
+        ),
+    log:
+        out("discovery/logs/collect_sensors.log"),
+    conda:
+        ENV
+    threads: 1
+    params:
+        sensors=[s for case in SHIPPED_CASES for s in SENSOR_SETS],
+    script:
+        "../scripts/collect_sensors.py"
