@@ -70,6 +70,10 @@ TRUTHS: dict[str, Truth] = {
     "conductivity_alf3": Truth(
         _v("c3"), _v("u2", "u5", "c2", "x6", "m"), {"part:bath_conductivity": {"own*(c3 - 0.11)": -3.5}}, True
     ),
+    # 8 % of the feed's command does not arrive: -0.08 u1 kg/s of alumina, and its impurities' share elsewhere
+    "alumina_feeder": Truth(_v("u1"), frozenset(), {"input:u1": {"1": -0.08}, "term:alumina_mass": {"u1": -0.08}}),
+    # 10 % of the logged tapping stays in the cell: +0.1 u4 kg/s of metal
+    "tapping_shortfall": Truth(_v("u4"), frozenset(), {"input:u4": {"1": -0.1}, "term:metal_mass": {"u4": 0.1}}),
     "no_effect": Truth(frozenset(), frozenset()),
     "printed_k4": Truth(_v("u1"), frozenset(), {"term:alf3_mass": {"u1": -0.016},
                                                "part:alf3_neutralisation": {"u1": 0.016}}),
