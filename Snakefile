@@ -46,6 +46,7 @@ include: "workflow/rules/discover.smk"
 include: "workflow/rules/sensors.smk"
 include: "workflow/rules/replicates.smk"
 include: "workflow/rules/beyond.smk"
+include: "workflow/rules/peers.smk"
 include: "workflow/rules/report.smk"
 
 

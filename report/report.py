@@ -425,6 +425,25 @@ if inputs.get("noise_table"):
 else:
     display(Markdown("No noise study was run (`beyond.noise.levels` is empty)."))
 
+# ## Against its peers: PySINDy and the UDE recipe
+#
+# The same cases through PySINDy (sparse regression of the starting model's residual, from
+# smoothed finite differences) and the UDE recipe (a CoSTA network inside the starting model,
+# then PySINDy's sparse regression of its output), with the same term library, training and
+# held-out data; each corrected model is rolled out and scored like ours. "—" in the name
+# column: the method names no effect (`docs/discovery.md`, "Against its peers").
+
+# %%
+if inputs.get("peers_summary"):
+    peers = pd.read_csv(inputs["peers_summary"][0])
+    show(
+        peers[["case", "method", "named", "equations_changed", "true_equations", "right_variables",
+               "coefficient_errors", "spurious_terms", "error_before", "error_after", "noise_floor",
+               "gap_closed_above_floor", "blowups", "seconds"]]
+    )  # fmt: skip
+else:
+    display(Markdown("The peers comparison is not part of this run (`peers.in_report: false`)."))
+
 # %% [markdown]
 # ## Provenance
 

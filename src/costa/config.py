@@ -82,6 +82,7 @@ def check_consistency(config: Mapping[str, Any]) -> None:
         raise ConfigError(
             f"beyond.noise.replicates = {noise['replicates']} is more than the run's replicates = {config['replicates']}"
         )
+    _check_peers(config)
     copied = evaluation["copied_samples"]
     if max(copied.values()) >= steps:
         raise ConfigError(f"evaluation.copied_samples {copied} must be below simulation.steps = {steps}")
@@ -131,6 +132,14 @@ def check_user_data(config: Mapping[str, Any]) -> None:
         split_held_out(user["path"], user["held_out_fraction"])
     except TrajectoryDataError as error:
         raise TrajectoryDataError(f"invalid data at 'discovery.user_data.path': {error}") from None
+def _check_peers(config: Mapping[str, Any]) -> None:
+    from .discover.unshipped import find_case
+
+    for name in config.get("peers", {}).get("cases") or []:
+        try:
+            find_case(name)
+        except ValueError as error:
+            raise ConfigError(f"peers.cases: {error}") from None
 
 
 def load_config(*paths: str | Path, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:

@@ -136,6 +136,25 @@ USER_CASE = (config["discovery"]["user_data"] or {}).get("name", "")
 DISCOVERY_CASES = SHIPPED_CASES + ([USER_CASE] if USER_CASE else [])
 
 
+def _peer_cases():
+    """peers.cases, or every shipped case and every unshipped effect (the registries, read now)."""
+    from costa.discover import CASES
+    from costa.discover.unshipped import UNSHIPPED
+
+    return list(config["peers"]["cases"] or [*CASES, *UNSHIPPED])
+
+
+PEER_CASES = _peer_cases()
+# the cases whose data are simulated: the configured ones and those the peers stage compares on
+SIMULATED_CASES = SHIPPED_CASES + [c for c in PEER_CASES if c not in SHIPPED_CASES]
+PEERS_CODE = DISCOVERY_CODE + TRAINING_CODE + package_files("peers")
+
+
+def peers_config(wildcards):
+    """What comparing the peers on a case depends on."""
+    return {**discovery_config(wildcards), "peers": config["peers"]}
+
+
 def discovery_config(wildcards):
     """What a discovery run depends on (not the training or the replication's sizes)."""
     return {
@@ -155,18 +174,18 @@ def starting_model_name(wildcards):
     """A shipped case says which model it starts from; your data start from the configured one."""
     if wildcards.case == USER_CASE:
         return config["discovery"]["user_data"]["starting_model"]
-    from costa.discover import CASES
+    from costa.discover.unshipped import find_case
 
-    return CASES[wildcards.case].starting
+    return find_case(wildcards.case).starting
 
 
 def discovery_meta(wildcards):
     """What findings.json records about the data (and, for a shipped case, what is hidden)."""
     if wildcards.case == USER_CASE:
         return {"data": f"measurements from {config['discovery']['user_data']['path']}"}
-    from costa.discover import CASES
+    from costa.discover.unshipped import find_case
 
-    case = CASES[wildcards.case]
+    case = find_case(wildcards.case)
     d = config["discovery"]
     return {
         "data": f"{d['trajectories']} simulated trajectories ({d['held_out_trajectories']} held out) "

@@ -29,6 +29,7 @@ rule report:
         replicate_blowups=across_replicates(out("replicates/blowups.png")),
         beyond_findings=expand(out("eval/{model}/findings.json"), model=DISCOVERED),
         noise_table=beyond_targets(),
+        peers_summary=[out("peers/summary.csv")] if config["peers"]["in_report"] else [],
         code=package_files("report.py", "offline.html.j2", "paper.py", "plots"),
     output:
         html=f"{REPORT}/report.html",

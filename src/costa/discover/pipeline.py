@@ -18,10 +18,11 @@ from ..physics import CellModel, model_from_config
 from ..sensors import measure, sensor_sets_from_config
 from ..simulate import SimulationSettings, simulate_set
 from ..variables import INPUTS
-from .cases import CASES, HiddenEffectCase
+from .cases import HiddenEffectCase
 from .gap import gap_tables, noise_floor
 from .partial_pipeline import PartialResult, run_partial_discovery
 from .search import DiscoverySettings, Round, discover
+from .unshipped import find_case
 from .weak_form import estimate_noise
 
 __all__ = [
@@ -71,13 +72,13 @@ def starting_model(config: Mapping, name: str) -> CellModel:
 def case_tables(
     config: Mapping, case: str | HiddenEffectCase, sensors: str = "full"
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Training and held-out tables of a case (a shipped one by name), simulated with its true model
+    """Training and held-out tables of a case (a shipped or unshipped one by name), simulated with its true model
     and measured by the sensor set ``sensors`` of ``discovery.sensor_sets``.
 
     A sensor that leaves its noise open gets the case's level: that fraction of its channel's
     std over the data set (the full set is then every state with the case's noise).
     """
-    case = CASES[case] if isinstance(case, str) else case
+    case = find_case(case) if isinstance(case, str) else case
     discovery = config["discovery"]
     sensor_set = sensor_sets_from_config(discovery["sensor_sets"])[sensors]
     settings = SimulationSettings.from_config(config["simulation"])

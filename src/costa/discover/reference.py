@@ -12,11 +12,31 @@ from ..forecast import rollout_networks
 from ..metrics import state_scale
 from ..models import NetworkModel
 from ..physics import CellModel
-from ..train import ModelType, TrainingSettings, train_ensemble, training_data
+from ..train import ModelType, TrainingData, TrainingSettings, train_ensemble, training_data
 from .gap import gap_tables
 from .pipeline import gap_settings
 
-__all__ = ["costa_reference"]
+__all__ = ["costa_reference", "train_costa"]
+
+
+def train_costa(config: Mapping, data: TrainingData, start: CellModel, name: str) -> NetworkModel:
+    """A small CoSTA ensemble (``discovery.costa_reference``'s size) with ``start`` as its physics,
+    trained on ``data`` (:func:`costa.train.training_data`: forward-difference targets, as published)."""
+    reference = config["discovery"]["costa_reference"]
+    training = {
+        **config["training"],
+        "instances": reference["instances"],
+        "epochs": reference["epochs"],
+        "compile": False,
+    }
+    settings = TrainingSettings.from_config(training)
+    model_type = ModelType("costa_reference", "costa", 0.0)
+    init = [
+        seeds.torch_generator(config["seed"], 0, f"discovery/{name}/costa/init", i) for i in range(settings.instances)
+    ]
+    shuffle = seeds.torch_generator(config["seed"], 0, f"discovery/{name}/costa/shuffle")
+    ensemble, _ = train_ensemble(data, model_type, settings, init, shuffle)
+    return NetworkModel(model_type, ensemble, data.normalisation, start, {})
 
 
 def costa_reference(
@@ -29,25 +49,10 @@ def costa_reference(
     """
     if incomplete_states(train) or incomplete_states(held_out):
         return pd.DataFrame(columns=["model", "window", "error", "mean", "blowups", "rollouts"])
-    reference = config["discovery"]["costa_reference"]
-    training = {
-        **config["training"],
-        "instances": reference["instances"],
-        "epochs": reference["epochs"],
-        "compile": False,
-    }
-    settings = TrainingSettings.from_config(training)
     x, u = arrays(train)
     xh, uh = arrays(held_out)
     dt = time_step(train)
-    data = training_data(x, u, dt, "costa", start)
-    model_type = ModelType("costa_reference", "costa", 0.0)
-    init = [
-        seeds.torch_generator(config["seed"], 0, f"discovery/{name}/costa/init", i) for i in range(settings.instances)
-    ]
-    shuffle = seeds.torch_generator(config["seed"], 0, f"discovery/{name}/costa/shuffle")
-    ensemble, _ = train_ensemble(data, model_type, settings, init, shuffle)
-    network = NetworkModel(model_type, ensemble, data.normalisation, start, {})
+    network = train_costa(config, training_data(x, u, dt, "costa", start), start, name)
     forecasts = rollout_networks(network, xh, uh, dt, config["evaluation"]["copied_samples"]["networks"])
     evaluation = gap_settings(config, name, xh.shape[1])
     gap, _ = gap_tables({"CoSTA reference": forecasts}, xh, uh, dt, state_scale(x), evaluation)

@@ -1,0 +1,51 @@
+"""Hidden effects the workflow was not designed around: cases that are not shipped.
+
+They are built like the shipped cases (:mod:`.cases`) but are not in ``discovery.cases``'
+default: ``pytest -m slow`` checks that discovery generalises to them, and the peers
+stage (:mod:`costa.peers`) compares methods on them.  These effects are small (the
+starting model is within about 2x of the noise floor).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from ..physics import PROPERTIES, CellModel, PropertyCorrection
+from .cases import CASES, HiddenEffectCase
+
+__all__ = ["UNSHIPPED", "find_case"]
+
+
+def _printed_k4(full: CellModel) -> CellModel:
+    return replace(full, params=full.params.replace(k4=0.036), name="full with the printed k4")
+
+
+def _varying(property_name: str, formula: str, fn):
+    return lambda full: full.with_property(PropertyCorrection(PROPERTIES[property_name], formula, fn))
+
+
+UNSHIPPED: dict[str, HiddenEffectCase] = {
+    c.name: c
+    for c in (
+        HiddenEffectCase("printed_k4", "k4 = 0.036 (printed) instead of 0.02", "a wrong constant", "full", 0.01,
+                         ("x3",), ("term:alf3_mass", "part:alf3_neutralisation"), _printed_k4),
+        HiddenEffectCase("bath_heat_capacity", "the bath's heat capacity 10 % lower", "a wrong property", "full", 0.01,
+                         ("x6",), ("property:bath_heat_capacity",),
+                         _varying("bath_heat_capacity", "0.1111", lambda v: 0.1111 + 0 * v.x6)),
+        HiddenEffectCase("current_efficiency", "current efficiency (1 - 0.005 (x6 - 970))", "an efficiency", "full",
+                         0.01, ("x2",), ("property:current_efficiency",),
+                         _varying("current_efficiency", "-0.005 (x6 - 970)", lambda v: -0.005 * (v.x6 - 970.0))),
+        HiddenEffectCase("ledge_conductivity", "k_sl (1 - 0.002 (x7 - 820))", "a state-dependent property", "full",
+                         0.01, ("x1", "x4", "x6", "x7", "x8"),
+                         ("property:ledge_conductivity", "property:ledge_density"),
+                         _varying("ledge_conductivity", "-0.002 (x7 - 820)", lambda v: -0.002 * (v.x7 - 820.0))),
+    )
+}  # fmt: skip
+
+
+def find_case(name: str) -> HiddenEffectCase:
+    """A shipped case or an unshipped one, by name (the shipped registry is read at call time)."""
+    cases = {**CASES, **UNSHIPPED}
+    if name not in cases:
+        raise ValueError(f"unknown discovery case {name!r}; known: {sorted(cases)}")
+    return cases[name]
