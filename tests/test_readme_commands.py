@@ -11,7 +11,7 @@ How each is covered:
   a fresh copy with a CSV made from simulated smoke data; Snakemake's report runs here; the five-replicate config runs here as a dry run (tests/test_workflow.py
   runs two replicates end to end), and so do the sensor sets; the worked own-cell example
   (its own small config) runs in tests/test_own_data.py; the cell-constants table runs here;
-  the beyond config runs here as a dry run (tests/test_workflow.py runs its DAG at smoke size),
+  the peers stage and the beyond config run here as dry runs (tests/test_workflow.py runs its DAG at smoke size),
   and the bound variants on the smoke run's trained models;
 - the commands after a crash run in tests/test_resume.py, the cluster command in
   tests/test_slurm.py;
@@ -113,6 +113,12 @@ def check_beyond_dry_run(command, smoke_run, tmp_path):
     assert "rollout_discovered" in result.stdout and "results/smoke/beyond/" in result.stdout
 
 
+def check_peers_dry_run(command, smoke_run, tmp_path):
+    result = run_command(smoke_run, f"{on_smoke(command)} --dry-run")
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert "collect_peers" in result.stdout and "results/smoke/peers/summary.csv" in result.stdout
+
+
 def check_bound_variants(command, smoke_run, tmp_path):
     """On the smoke run's trained models (its only replicate stands in for replicate 1)."""
     smoke = command.replace('--reps "" replicates/r1/', '--reps ""')
@@ -179,6 +185,7 @@ CHECKS = {
     "python -m costa.cell_constants my.yaml": check_cell_constants,
     "snakemake --cores 2 results/discovery/sensors.csv --configfile config/sensors.yaml": check_sensors_dry_run,
     "snakemake --cores 2 --configfile config/beyond.yaml": check_beyond_dry_run,
+    "snakemake --cores 2 results/peers/summary.csv": check_peers_dry_run,
     "python benchmarks/bound_variants.py": check_bound_variants,
     'python benchmarks/bound_variants.py --reps "" replicates/r1/': check_bound_variants,
     "snakemake --report results/snakemake_report.html": check_report,
