@@ -91,16 +91,10 @@ def _coefficients(features, coefficients, intervals_by_level, inclusion) -> list
 
 
 def _partial_candidate(c, model) -> dict[str, Any]:
-    h = c.hypothesis
+    """A partial round's candidate: as on full data, plus the free delta's likelihood gain that
+    shortlisted it (a correction that could not be scored has no BIC gain)."""
     return {
-        "hypothesis": h.key,
-        "kind": h.kind,
-        "target": h.target,
-        "unit": h.unit,
-        "description": h.describe(model),
-        "closed_form": c.formula,
-        "terms": [f.name for f in c.features],
-        "excess_removed": round(c.explained, 4),
+        **_candidate(c, model),
         "bic_gain": round(c.bic_gain, 1) if np.isfinite(c.bic_gain) else None,
         "free_delta_log_likelihood_gain": round(c.score.log_likelihood_gain, 1),
     }

@@ -38,13 +38,13 @@ from .library import Feature
 from .observed import estimate_states
 from .partial import HypothesisScore, Observations, score_hypotheses, smooth_hypothesis
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
-from .search import KEEP_LEVEL, DiscoverySettings, independent_columns, naming_order, percentile_intervals, weakest_term
+from .search import KEEP_LEVEL, DiscoverySettings, FittedTerms, independent_columns, naming_order, weakest_term
 
 __all__ = ["PartialRound", "discover_partial", "separating_channel"]
 
 
 @dataclass
-class PartialCandidate:
+class PartialCandidate(FittedTerms):
     """A hypothesis with its smoothed delta, the closed form fitted to it and the corrected model's
     score: ``bic_gain`` over the uncorrected model on the measured channels, ``explained`` the share
     of the flagged channels' excess it removes."""
@@ -63,14 +63,6 @@ class PartialCandidate:
     @property
     def hypothesis(self) -> Hypothesis:
         return self.score.hypothesis
-
-    @property
-    def formula(self) -> str:
-        return Hypothesis.formula(self.features, self.coefficients)
-
-    def intervals(self, level: float) -> list[tuple[float, float]]:
-        """Each kept term's bootstrap interval at ``level``."""
-        return percentile_intervals(self.samples, level)
 
 
 @dataclass

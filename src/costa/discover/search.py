@@ -41,7 +41,7 @@ from .regression import GramSystem, _solve, coefficient_samples, resample_weight
 from .weak_form import EquationTest, WeakForm, equation_tests, estimate_noise
 
 __all__ = [
-    "KEEP_LEVEL", "Candidate", "DiscoverySettings", "Round", "discover", "independent_columns", "naming_order",
+    "KEEP_LEVEL", "Candidate", "DiscoverySettings", "FittedTerms", "Round", "discover", "independent_columns", "naming_order",
     "percentile_intervals", "weakest_term",
 ]  # fmt: skip
 
@@ -83,8 +83,25 @@ class DiscoverySettings:
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
 
 
+class FittedTerms:
+    """What a fitted closed form offers to read: ``features``, ``coefficients`` and bootstrap
+    ``samples`` (resamples, terms) give the formula and each term's interval."""
+
+    features: list[Feature]
+    coefficients: np.ndarray
+    samples: np.ndarray | None
+
+    @property
+    def formula(self) -> str:
+        return Hypothesis.formula(self.features, self.coefficients)
+
+    def intervals(self, level: float) -> list[tuple[float, float]]:
+        """Each term's bootstrap interval at ``level`` (a percentile interval of ``samples``)."""
+        return percentile_intervals(self.samples, level)
+
+
 @dataclass
-class Candidate:
+class Candidate(FittedTerms):
     """A hypothesis with its fitted closed form."""
 
     hypothesis: Hypothesis
@@ -96,14 +113,6 @@ class Candidate:
     corrected: CellModel | None = None
     inclusion: dict[str, float] = field(default_factory=dict)  # term -> share of resamples selecting it
     samples: np.ndarray | None = None  # (resamples, terms) bootstrap coefficients around the refined values
-
-    @property
-    def formula(self) -> str:
-        return Hypothesis.formula(self.features, self.coefficients)
-
-    def intervals(self, level: float) -> list[tuple[float, float]]:
-        """Each term's bootstrap interval at ``level`` (a percentile interval of ``samples``)."""
-        return percentile_intervals(self.samples, level)
 
 
 @dataclass
@@ -426,9 +435,7 @@ def discover_round(
     tests = equation_tests(z0 * problem.scale, problem.scale, settings.z_threshold, settings.min_excess)
     flagged = [i for i, t in enumerate(tests) if t.flagged]
     if not flagged:
-        return Round(
-            model, tests, {}, [], None, [], "no equation disagrees with the data beyond noise", rich, window
-        )
+        return Round(model, tests, {}, [], None, [], "no equation disagrees with the data beyond noise", rich, window)
     hypotheses = candidate_hypotheses(model)
     screened = sorted(((problem.screen(h, model, z0, flagged), h) for h in hypotheses), key=lambda item: -item[0])
     # hypotheses with the same sensitivity tie exactly: keep ties together
