@@ -64,7 +64,9 @@ def test_bad_gap_windows_in_the_config_are_named():
         load_config(overrides={"discovery": {"user_data": {"path": "x.csv", "gap_windows": {"long": [0, 1]}}}})
 
 
-def test_discovery_on_a_sparse_table_stops_with_one_clear_error(example_config, tmp_path):
+def test_a_sparse_table_takes_the_estimator_route_and_needs_its_sensors_noise(example_config, tmp_path):
+    """x2 absent and x7 sampled every 30 steps: discovery goes through the state estimator, which
+    asks for the noise of the channel too sparse to estimate it, naming the channel and the key."""
     table = pd.read_csv(EXAMPLE / "cell.csv")
     table["x7"] = table.x7.where(np.arange(len(table)) % 30 == 0)
     path = tmp_path / "sparse.csv"
@@ -72,8 +74,8 @@ def test_discovery_on_a_sparse_table_stops_with_one_clear_error(example_config, 
     train, held_out = split_held_out(path, 0.34)  # splitting works on any table of the contract
     with pytest.raises(
         TrajectoryDataError,
-        match=r"sparse.csv: discovery needs every state x1..x8 measured at every step, but x2 \(Al2O3 mass\) is "
-        r"absent; x7 \(side-ledge temperature\) has 80 of 2400 steps",
+        match=r"sparse.csv: channel 'x7' is not sampled at every step, so its noise cannot be estimated from the "
+        r"data; declare it in discovery.user_data.noise",
     ):
         run_discovery(example_config, train, held_out, starting_model(example_config, "full"), "cell", str(path))
 

@@ -40,7 +40,7 @@ def test_channel_noise_is_estimated_where_dense_and_declared_where_sparse():
     )
     noise = channel_noise(y, ("x6", "c3"), {"c3": 0.002})
     assert noise[0] == pytest.approx(0.2, rel=0.05) and noise[1] == 0.002
-    with pytest.raises(ValueError, match="channel 'c3' is not sampled at every step.*declare it"):
+    with pytest.raises(ValueError, match="channel 'c3' is not sampled at every step.*declare it in discovery.user_data"):
         channel_noise(y, ("x6", "c3"), {})
 
 

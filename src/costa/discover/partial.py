@@ -72,7 +72,7 @@ def channel_noise(y: np.ndarray, channels: Sequence[str], declared: Mapping[str,
         else:
             raise ValueError(
                 f"channel {name!r} is not sampled at every step, so its noise cannot be estimated from the data; "
-                "declare it (the sensor's noise std, in the channel's unit)"
+                "declare it in discovery.user_data.noise (the sensor's noise std, in the channel's unit)"
             )
     return np.array(noise)
 
