@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Mapping
 
@@ -13,6 +14,7 @@ from ..metrics import EvaluationSettings, per_state_table, per_step_error, windo
 from ..observe import observe
 from ..physics import CellModel
 from .observed import estimate_states
+from .partial import Observations
 
 __all__ = ["gap_tables", "noise_floor"]
 
@@ -91,27 +93,24 @@ def measured_channel_error(
         return np.nanmean(per_channel, axis=-1)
 
 
-def _rollout_from_estimate(model: CellModel, y, u, channels, noise, dt, start_steps: int) -> np.ndarray:
+def _rollout_from_estimate(model: CellModel, obs: Observations, start_steps: int) -> np.ndarray:
     """Channels (n, K, C) of ``model`` rolled out from its smoothed estimate of the first state,
     made from the first ``start_steps`` samples only."""
-    first = estimate_states(model, y[:, :start_steps], u[:, :start_steps], channels, noise, dt).mean[:, :1]
-    start = np.concatenate([first, np.zeros((y.shape[0], y.shape[1] - 1, 8))], axis=1)
+    early = obs.y[:, :start_steps], obs.u[:, :start_steps]
+    first = estimate_states(model, *early, obs.channels, obs.noise, obs.dt).mean[:, :1]
+    start = np.concatenate([first, np.zeros((obs.y.shape[0], obs.y.shape[1] - 1, 8))], axis=1)
     with np.errstate(all="ignore"):
-        return observe(model, rollout_physics(model, start, u, dt), u, channels)
+        return observe(model, rollout_physics(model, start, obs.u, obs.dt), obs.u, obs.channels)
 
 
 def measured_gap(
     models: Mapping[str, CellModel],
-    y: np.ndarray,
-    u: np.ndarray,
-    channels: tuple[str, ...],
-    noise: np.ndarray,
-    dt: float,
+    obs: Observations,
     scale: np.ndarray,
     settings: EvaluationSettings,
     start_steps: int,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Each model's gap on held-out partial measurements y (n, K, C): rolled out from the state it
+    """Each model's gap on held-out partial measurements ``obs``: rolled out from the state it
     estimates from the first ``start_steps`` samples, scored on the measured channels per window.
 
     Returns (per window: model, window, error (median over trajectories of the mean error),
@@ -119,10 +118,10 @@ def measured_gap(
     """
     rows, per_channel = [], []
     for name, model in models.items():
-        forecast = _rollout_from_estimate(model, y, u, channels, noise, dt, start_steps)
-        rows += _window_rows(name, measured_channel_error(forecast, y, scale), settings)
-        for c, channel in enumerate(channels):
-            error = measured_channel_error(forecast[..., c : c + 1], y[..., c : c + 1], scale[c : c + 1])
+        forecast = _rollout_from_estimate(model, obs, start_steps)
+        rows += _window_rows(name, measured_channel_error(forecast, obs.y, scale), settings)
+        for c, channel in enumerate(obs.channels):
+            error = measured_channel_error(forecast[..., c : c + 1], obs.y[..., c : c + 1], scale[c : c + 1])
             per_channel += [
                 {**row, "channel": channel} for row in _window_rows(name, error, settings)
             ]
@@ -149,21 +148,17 @@ def _window_rows(name: str, error: np.ndarray, settings: EvaluationSettings) -> 
 
 def measured_noise_floor(
     model: CellModel,
-    y: np.ndarray,
-    u: np.ndarray,
-    channels: tuple[str, ...],
-    noise: np.ndarray,
-    dt: float,
+    obs: Observations,
     scale: np.ndarray,
     settings: EvaluationSettings,
     start_steps: int,
     rng: np.random.Generator,
 ) -> dict[str, float]:
     """The gap a perfect model would still show on these sensors: ``model`` plays the truth from
-    its own estimated start, its channels are sampled where y was, with the sensors' noise, and the
+    its own estimated start, its channels are sampled where ``obs`` was, with the sensors' noise, and the
     same procedure (estimate the start, roll out, score) runs on that synthetic record."""
-    truth = _rollout_from_estimate(model, y, u, channels, noise, dt, start_steps)
-    measured = np.where(np.isfinite(y), truth + rng.normal(size=truth.shape) * noise, np.nan)
-    forecast = _rollout_from_estimate(model, measured, u, channels, noise, dt, start_steps)
+    truth = _rollout_from_estimate(model, obs, start_steps)
+    measured = np.where(np.isfinite(obs.y), truth + rng.normal(size=truth.shape) * obs.noise, np.nan)
+    forecast = _rollout_from_estimate(model, dataclasses.replace(obs, y=measured), start_steps)
     rows = _window_rows("floor", measured_channel_error(forecast, measured, scale), settings)
     return {row["window"]: row["error"] for row in rows}

@@ -88,9 +88,8 @@ def run_partial_discovery(
     start_steps = min(stop for _, stop in evaluation.windows.values())
     scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)
     models = {"starting model": start} | ({"corrected model": corrected} if corrected is not start else {})
-    args = (held.y, held.u, held.channels, held.noise, held.dt, scale, evaluation, start_steps)
-    gap, per_channel = measured_gap(models, *args)
-    floor = measured_noise_floor(corrected, *args, rng)
+    gap, per_channel = measured_gap(models, held, scale, evaluation, start_steps)
+    floor = measured_noise_floor(corrected, held, scale, evaluation, start_steps, rng)
     return PartialResult(
         rounds,
         obs.channels,
