@@ -48,11 +48,14 @@ class Sensor:
 
 @dataclass(frozen=True)
 class SensorSet:
-    """The channels a cell's instruments measure; ``hours``: the length of its trajectories (None: the default)."""
+    """The channels a cell's instruments measure; ``hours``: the length of its trajectories, ``trajectories``
+    and ``held_out_trajectories``: how many (None: the defaults)."""
 
     name: str
     sensors: tuple[Sensor, ...]
     hours: float | None = None
+    trajectories: int | None = None
+    held_out_trajectories: int | None = None
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -98,12 +101,15 @@ def _noise(sensor: Sensor, set_name: str, default: Mapping[str, float] | None) -
 
 
 def sensor_sets_from_config(sets: Mapping[str, Mapping]) -> dict[str, SensorSet]:
-    """``discovery.sensor_sets`` of the config: name -> {hours, channels: {channel: {every_s, noise}}}."""
+    """``discovery.sensor_sets`` of the config: name -> {hours, trajectories, held_out_trajectories,
+    channels: {channel: {every_s, noise}}}."""
     return {
         name: SensorSet(
             name,
             tuple(Sensor(channel, s["every_s"], s.get("noise")) for channel, s in spec["channels"].items()),
             spec.get("hours"),
+            spec.get("trajectories"),
+            spec.get("held_out_trajectories"),
         )
         for name, spec in sets.items()
     }

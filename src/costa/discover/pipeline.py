@@ -85,7 +85,11 @@ def case_tables(
     settings = replace(settings, steps=sensor_set.steps(settings.dt, settings.steps))
     true, _ = case.models(model_from_config(config["physics"])[0])
     tables = []
-    for split, count in (("train", discovery["trajectories"]), ("held_out", discovery["held_out_trajectories"])):
+    counts = (
+        ("train", sensor_set.trajectories or discovery["trajectories"]),
+        ("held_out", sensor_set.held_out_trajectories or discovery["held_out_trajectories"]),
+    )
+    for split, count in counts:
         stream = f"discovery/{case.name}/{split}"
         trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream)
         x, u = trajectories.x, trajectories.u
@@ -188,7 +192,9 @@ def run_discovery(
     floor_rng = seeds.numpy_generator(config["seed"], 0, f"discovery/{name}/floor")
     if incomplete_states(train) or incomplete_states(held_out):
         evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
-        return run_partial_discovery(train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng)
+        return run_partial_discovery(
+            train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng
+        )
     data = _data(train, held_out, source, settings.window)
     started = time.perf_counter()
     rounds, noise = discover(start, data.x, data.u, data.dt, settings)
@@ -202,5 +208,7 @@ def run_discovery(
     gap, per_state = gap_tables(models, data.x_held_out, data.u_held_out, data.dt, scale, evaluation)
     # the held-out trajectories' own noise: their sensors (or their noise level) may differ
     held_out_noise = estimate_noise(data.x_held_out)
-    floor = noise_floor(corrected, data.x_held_out, data.u_held_out, data.dt, held_out_noise, scale, evaluation, floor_rng)
+    floor = noise_floor(
+        corrected, data.x_held_out, data.u_held_out, data.dt, held_out_noise, scale, evaluation, floor_rng
+    )
     return DiscoveryResult(rounds, noise, corrected, gap, per_state, floor, seconds, dict(evaluation.windows), data.dt)
