@@ -63,13 +63,15 @@ class Smoothed:
     ``mean``, ``std`` (n, K, L): smoothed states and their marginal std;
     ``innovation`` (n, K, C): standardised one-step-ahead prediction errors of the
     filter (NaN where the channel was not measured); ``log_likelihood`` (n,): the
-    log density of each trajectory's measurements under the model.
+    log density of each trajectory's measurements under the model; ``final_cov``
+    (n, L, L): the covariance at the last step, given every measurement.
     """
 
     mean: np.ndarray
     std: np.ndarray
     innovation: np.ndarray
     log_likelihood: np.ndarray
+    final_cov: np.ndarray
 
 
 def _update(mean, cov, y, u, model: StateSpaceModel, step):
@@ -140,7 +142,7 @@ def smooth(
             smoothed_mean[:, k] = means[:, k] + np.einsum("bij,bj->bi", gain, smoothed_mean[:, k + 1] - predicted[:, k])
             smoothed_cov[:, k] = covs[:, k] + gain @ (smoothed_cov[:, k + 1] - predicted_cov) @ np.swapaxes(gain, 1, 2)
     std = np.sqrt(np.clip(np.diagonal(smoothed_cov, axis1=2, axis2=3), 0.0, None))
-    return Smoothed(smoothed_mean, std, innovation, log_likelihood)
+    return Smoothed(smoothed_mean, std, innovation, log_likelihood, smoothed_cov[:, -1])
 
 
 @dataclass(frozen=True)

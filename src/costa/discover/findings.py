@@ -133,8 +133,9 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
     if r.chosen is not None:
         correction = _partial_candidate(r.chosen, r.model)
         correction["kept_if"] = (
-            f"selected in at least half the bootstrap resamples and its {KEEP_LEVEL:.0%} interval "
-            f"(from the same resamples; the {LEVELS[0]:.0%} interval lies inside it) excludes zero"
+            "selected in at least half the bootstrap resamples of the regression on the smoothed delta "
+            f"(or a flow input, refined beside them), and its {KEEP_LEVEL:.0%} interval from the fit to the "
+            f"measured channels (the refined posterior; the {LEVELS[0]:.0%} interval lies inside it) excludes zero"
         )
         intervals = {level: r.chosen.intervals(level) for level in LEVELS}
         correction["coefficients"] = _coefficients(

@@ -122,9 +122,7 @@ def measured_gap(
         rows += _window_rows(name, measured_channel_error(forecast, obs.y, scale), settings)
         for c, channel in enumerate(obs.channels):
             error = measured_channel_error(forecast[..., c : c + 1], obs.y[..., c : c + 1], scale[c : c + 1])
-            per_channel += [
-                {**row, "channel": channel} for row in _window_rows(name, error, settings)
-            ]
+            per_channel += [{**row, "channel": channel} for row in _window_rows(name, error, settings)]
     columns = ["model", "window", "channel", "error"]
     return pd.DataFrame(rows), pd.DataFrame(per_channel)[columns]
 

@@ -125,6 +125,19 @@ class Hypothesis:
         own = model.parts[self.target].symbol if self.kind == "part" else "own"
         return self._with(model, correction, self.formula(features, coefficients, own=own))
 
+    def parametrised(
+        self, model: CellModel, features: Sequence[Feature], source: Callable[[], np.ndarray]
+    ) -> CellModel:
+        """``model`` with the correction sum_k theta_k f_k, its coefficients read from ``source()``
+        (rows, terms) at every evaluation: each row of a batch carries its own coefficients."""
+        features = list(features)
+
+        def correction(v, q, own):
+            theta = source()
+            return sum(theta[:, k] * f(v, q, own) for k, f in enumerate(features))
+
+        return self._with(model, correction, "theta")
+
     def shifted(self, model: CellModel, values: np.ndarray) -> CellModel:
         """``model`` with delta given sample by sample (an array shaped like the data it will see)."""
         return self._with(model, lambda v, q, own: values, "delta(t)")

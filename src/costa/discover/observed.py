@@ -68,7 +68,14 @@ def prior(y: np.ndarray, channels: Sequence[str]) -> tuple[np.ndarray, np.ndarra
 
 
 def estimate_states(
-    model: CellModel, y: np.ndarray, u: np.ndarray, channels: Sequence[str], noise_std: np.ndarray, dt: float
+    model: CellModel,
+    y: np.ndarray,
+    u: np.ndarray,
+    channels: Sequence[str],
+    noise_std: np.ndarray,
+    dt: float,
+    backward: bool = True,
 ) -> Smoothed:
-    """Smoothed states (n, K, 8) of ``model`` given measured channels y (n, K, C) (NaN: not sampled)."""
-    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, *prior(y, channels))
+    """Smoothed states (n, K, 8) of ``model`` given measured channels y (n, K, C) (NaN: not sampled);
+    ``backward`` False: the filter only (innovations and likelihood)."""
+    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, *prior(y, channels), backward=backward)

@@ -28,6 +28,7 @@ from ..observe import observe
 from ..physics import CellModel
 from .estimator import Smoothed, StateSpaceModel, smooth
 from .hypotheses import Hypothesis
+from .library import Feature
 from .observed import NOMINAL_STATE, PROCESS_STD, prior
 from .weak_form import estimate_noise
 
@@ -37,6 +38,7 @@ __all__ = [
     "channel_noise",
     "hypothesis_scales",
     "score_hypotheses",
+    "refine_coefficients",
     "smooth_hypothesis",
 ]
 
@@ -114,26 +116,50 @@ def _space(
     return StateSpaceModel(transition, measured, process, obs.noise, np.append(NOMINAL_STATE, 1.0))
 
 
+def _responses(shifted: CellModel, x: np.ndarray, u: np.ndarray, obs: Observations, copies: int) -> np.ndarray:
+    """The measured channels (copies, rows, C) after simulating ``copies`` stacked copies of the
+    states x (rows, 8) under the inputs u (rows, steps, 5), one row block per hypothesis."""
+    x = np.tile(x, (copies, 1))
+    with np.errstate(all="ignore"):
+        for k in range(u.shape[1]):
+            inputs = np.tile(u[:, k], (copies, 1))
+            x = rk4_step(shifted.rhs, x, inputs, obs.dt)
+        return observe(shifted, x, inputs, obs.channels).reshape(copies, len(u), -1)
+
+
 def hypothesis_scales(
-    model: CellModel, hypotheses: Sequence[Hypothesis], obs: Observations, window: int, probe: float = 1e-4
+    model: CellModel,
+    hypotheses: Sequence[Hypothesis],
+    obs: Observations,
+    window: int,
+    states: np.ndarray,
+    probe: float = 1e-4,
 ) -> np.ndarray:
     """The delta (H,) of each hypothesis that moves the most sensitive measured channel by one noise
-    std over ``window`` steps, held from the first sample of each trajectory (0: no measured channel
-    responds, the hypothesis is invisible to these sensors)."""
+    std over ``window`` steps, held from the first sample of each trajectory.  A hypothesis no
+    channel responds to there (an input that acts now and then, a tapping) is probed in every
+    window of the data instead, from the estimated ``states`` (n, K, 8) at its start, and its
+    response averaged (root mean square) over the windows.  0: no measured channel responds,
+    the hypothesis is invisible to these sensors."""
+
+    def strongest(which_rows, x, u):
+        shifted = _composed(model, hypotheses, which_rows, np.full(which_rows.shape, probe))
+        y = _responses(shifted, x, u, obs, len(which_rows) // len(x))
+        response = np.nan_to_num(np.abs(y[1:] - y[0]) / probe / obs.noise)  # noise stds per unit delta
+        return np.sqrt(np.mean(response**2, axis=1)).max(-1)
+
     x0, _ = prior(obs.y, obs.channels)
-    u = obs.u[:, :window]
-    h_count, n = len(hypotheses), x0.shape[0]
-    which = np.repeat(np.arange(-1, h_count), n)
-    x = np.tile(x0, (h_count + 1, 1))
-    with np.errstate(all="ignore"):
-        for k in range(window):
-            shifted = _composed(model, hypotheses, which, np.full(which.shape, probe))
-            x = rk4_step(shifted.rhs, x, np.tile(u[:, k], (h_count + 1, 1)), obs.dt)
-        shifted = _composed(model, hypotheses, which, np.full(which.shape, probe))
-        y = observe(shifted, x, np.tile(u[:, -1], (h_count + 1, 1)), obs.channels).reshape(h_count + 1, n, -1)
-    response = np.nan_to_num(np.abs(y[1:] - y[0]) / probe / obs.noise)  # (H, n, C) noise stds per unit delta
-    strongest = np.sqrt(np.mean(response**2, axis=1)).max(-1)
-    return np.divide(1.0, strongest, out=np.zeros(h_count), where=strongest > 0)
+    h_count = len(hypotheses)
+    size = strongest(np.repeat(np.arange(-1, h_count), len(x0)), x0, obs.u[:, :window])
+    silent = np.flatnonzero(size == 0)
+    if len(silent):
+        n, steps = obs.y.shape[:2]
+        starts = np.arange(0, steps - window + 1, window)
+        x = states[:, starts].reshape(-1, 8)
+        u = obs.u[:, starts[:, None] + np.arange(window)].reshape(len(x), window, -1)
+        which = np.repeat(np.concatenate([[-1], silent]), len(x))
+        size[silent] = strongest(which, x, u)
+    return np.divide(1.0, size, out=np.zeros(h_count), where=size > 0)
 
 
 @dataclass(frozen=True)
@@ -178,11 +204,12 @@ def score_hypotheses(
     hypotheses: Sequence[Hypothesis],
     obs: Observations,
     window: int,
+    states: np.ndarray,
     walks: Sequence[float] = (0.3, 3.0),
 ) -> tuple[list[HypothesisScore], np.ndarray]:
     """Every hypothesis' log-likelihood gain (best over the random-walk steps ``walks``, in noise
-    stds per window), best first, and the scales (H,)."""
-    scales = hypothesis_scales(model, hypotheses, obs, window)
+    stds per window), best first, and the scales (H,); ``states`` (n, K, 8): the model's estimate."""
+    scales = hypothesis_scales(model, hypotheses, obs, window, states)
     n = obs.y.shape[0]
     pairs, result = _filter(model, hypotheses, scales, obs, window, walks, backward=False)
     totals = result.log_likelihood.reshape(len(pairs), n).sum(-1)
@@ -201,3 +228,59 @@ def smooth_hypothesis(model: CellModel, score: HypothesisScore, obs: Observation
     result.mean[..., 8] *= score.scale
     result.std[..., 8] *= score.scale
     return result
+
+
+def refine_coefficients(
+    model: CellModel,
+    hypothesis: Hypothesis,
+    features: Sequence[Feature],
+    coefficients: np.ndarray,
+    width: np.ndarray,
+    obs: Observations,
+    passes: int = 2,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Maximum-likelihood coefficients (P,) of a closed form and their covariance (P, P), on every
+    trajectory of ``obs``.
+
+    A regression on the smoothed delta(t) is attenuated where the random walk cannot follow
+    delta (a tapping's step, a fast change): here the coefficients are constant states of the
+    smoother, with a prior N(coefficients, width^2) and no process noise, so the measured
+    channels themselves fit them.  Each trajectory's posterior is combined into one (the product
+    of the trajectories' likelihoods), and each further pass re-linearises around the result.
+    None where the combined posterior is not a proper Gaussian (too nonlinear to trust).
+    """
+    p = len(features)
+    current: dict[str, np.ndarray] = {}
+    corrected = hypothesis.parametrised(model, features, lambda: current["theta"])
+
+    def split(z):
+        current["theta"] = z[:, 8:]
+        return z[:, :8]
+
+    def transition(z, u):
+        return np.concatenate([rk4_step(corrected.rhs, split(z), u, obs.dt), z[:, 8:]], axis=1)
+
+    def measured(z, u):
+        return observe(corrected, split(z), u, obs.channels)
+
+    n = obs.y.shape[0]
+    x0, cov0 = prior(obs.y, obs.channels)
+    prior_precision = np.diag(1.0 / width**2)
+    space = StateSpaceModel(
+        transition, measured, np.append(PROCESS_STD, np.zeros(p)), obs.noise, np.append(NOMINAL_STATE, width)
+    )
+    theta = np.asarray(coefficients, dtype=float)
+    for _ in range(passes):
+        mean0 = np.column_stack([x0, np.tile(theta, (n, 1))])
+        cov = np.zeros((8 + p, 8 + p))
+        cov[:8, :8], cov[8:, 8:] = cov0, np.diag(width**2)
+        result = smooth(space, obs.y, obs.u, mean0, cov, backward=False)
+        means, covs = result.mean[:, -1, 8:], result.final_cov[:, 8:, 8:]
+        if not (np.isfinite(means).all() and np.isfinite(covs).all()):
+            return None
+        precisions = np.linalg.inv(covs)
+        total = precisions.sum(0) - (n - 1) * prior_precision
+        if np.any(np.linalg.eigvalsh(0.5 * (total + total.T)) <= 0):
+            return None
+        theta = np.linalg.solve(total, np.einsum("nij,nj->i", precisions, means) - (n - 1) * prior_precision @ theta)
+    return theta, np.linalg.inv(total)

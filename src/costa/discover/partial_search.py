@@ -24,6 +24,8 @@ One round on the current model:
 
 from __future__ import annotations
 
+import logging
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -31,16 +33,21 @@ import numpy as np
 
 from ..observe import observe
 from ..physics import CellModel
-from ..variables import CHANNELS
+from ..variables import CHANNELS, INPUTS
 from .estimator import ChannelTest, Smoothed, innovation_tests
 from .hypotheses import Hypothesis, candidate_hypotheses
-from .library import Feature
+from .library import FLOW_INPUTS, Feature
 from .observed import estimate_states
-from .partial import HypothesisScore, Observations, score_hypotheses, smooth_hypothesis
+from .partial import HypothesisScore, Observations, refine_coefficients, score_hypotheses, smooth_hypothesis
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
 from .search import KEEP_LEVEL, DiscoverySettings, FittedTerms, independent_columns, naming_order, weakest_term
 
 __all__ = ["PartialRound", "discover_partial", "separating_channel"]
+
+log = logging.getLogger(__name__)
+
+#: two corrections whose changes of the state rates differ by less than this share are the same physics
+SAME_PHYSICS = 0.05
 
 
 @dataclass
@@ -103,14 +110,17 @@ def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
     return sum(max(by_name[c].chi2_per_dof - 1, 0.0) + by_name[c].bias ** 2 for c in channels if c in by_name)
 
 
-def _same_physics(a: Hypothesis, b: Hypothesis, model: CellModel, x: np.ndarray, u: np.ndarray) -> bool:
-    """Whether two hypotheses change every state rate in proportion at every sample (the same
-    direction in state space): no measurement of the states could tell them apart."""
-    ja, jb = a.sensitivity(model, x, u), b.sensitivity(model, x, u)
-    scale = np.abs(np.concatenate([ja, jb])).reshape(-1, 8).max(0) + 1e-300
-    ja, jb = (ja / scale).reshape(-1, 8), (jb / scale).reshape(-1, 8)
-    cosine = np.abs((ja * jb).sum(-1)) / (np.linalg.norm(ja, axis=-1) * np.linalg.norm(jb, axis=-1) + 1e-300)
-    return bool(np.nanmin(cosine) > 0.999)
+def _same_physics(a: PartialCandidate, b: PartialCandidate, model: CellModel, x: np.ndarray, u: np.ndarray) -> bool:
+    """Whether two fitted corrections change every state rate alike at the estimated states x (..., 8):
+    then no measurement of the states could tell them apart (a tapping gain and the same flow in
+    the metal balance; a flow into the bath energy balance and the same change of the electric power)."""
+    with np.errstate(all="ignore"):
+        base = model.rhs(x, u)
+        da, db = (c.corrected.rhs(x, u) - base for c in (a, b))
+    scale = np.nanmax(np.abs(np.concatenate([da, db])).reshape(-1, 8), axis=0) + 1e-300
+    difference = np.linalg.norm(np.nan_to_num((da - db) / scale))
+    size = max(np.linalg.norm(np.nan_to_num(da / scale)), np.linalg.norm(np.nan_to_num(db / scale)), 1e-300)
+    return bool(difference / size < SAME_PHYSICS)
 
 
 def separating_channel(
@@ -162,8 +172,49 @@ def _closed_form(
     return [library[i] for i in terms], _solve(G, b, terms), samples, inclusion_by_name
 
 
-def _tests(model: CellModel, obs: Observations, settings: DiscoverySettings) -> tuple[list[ChannelTest], Smoothed]:
-    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt)
+def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: Smoothed, rich: bool, rng):
+    """The closed form ``fit`` (features, coefficients, samples) refined on the measured channels
+    (:func:`.partial.refine_coefficients`), with samples of their posterior in place of the bootstrap's.
+
+    The flow inputs of the hypothesis' library (the feed and tapping, one-step doses) are refined
+    beside the selected terms: a delta proportional to a dose is a train of spikes that the
+    smoothed random walk spreads out, so the regression cannot see it, but the measured channels
+    can.  The terms whose interval then covers zero are dropped and the rest refined again (all at
+    once: each refinement is a pass of the filter over every trajectory).  Unchanged where the
+    refinement is not trustworthy."""
+    original, succeeded = fit, False
+    features, coefficients, samples = fit
+    names = {f.name for f in features}
+    doses = [f for f in h.features(rich) if f.name in FLOW_INPUTS and f.name not in names]
+    if doses:
+        size = np.nanmean(np.abs(smoothed.mean[..., 8]))
+        level = [np.mean(obs.u[..., INPUTS.index(f.name)]) for f in doses]
+        features = [*features, *doses]
+        coefficients = np.append(coefficients, np.zeros(len(doses)))
+        spread = [2 * size / max(mean, 1e-300) for mean in level]
+        samples = np.column_stack(
+            [samples, np.outer(np.ones(len(samples)), spread) * rng.standard_normal((len(samples), len(doses)))]
+        )
+    while features:
+        width = np.maximum(0.5 * np.abs(coefficients), 5 * samples.std(axis=0)) + 1e-300
+        refined = refine_coefficients(model, h, features, coefficients, width, obs)
+        if refined is None:
+            return (features, coefficients, samples) if succeeded else original
+        (coefficients, covariance), succeeded = refined, True
+        samples = rng.multivariate_normal(coefficients, covariance, size=len(samples), method="eigh")
+        low, high = np.quantile(samples, [(1 - KEEP_LEVEL) / 2, (1 + KEEP_LEVEL) / 2], axis=0)
+        unneeded = [i for i in range(len(features)) if low[i] <= 0 <= high[i]]
+        if not unneeded:
+            break
+        keep = [i for i in range(len(features)) if i not in unneeded]
+        features, coefficients, samples = [features[i] for i in keep], coefficients[keep], samples[:, keep]
+    return features, coefficients, samples
+
+
+def _tests(
+    model: CellModel, obs: Observations, settings: DiscoverySettings, backward: bool = True
+) -> tuple[list[ChannelTest], Smoothed]:
+    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward)
     return innovation_tests(smoothed.innovation, obs.channels, settings.z_threshold, settings.min_excess), smoothed
 
 
@@ -177,17 +228,19 @@ def _fit(
     tests: list[ChannelTest],
     base_likelihood: float,
 ) -> PartialCandidate:
-    """Smooth one hypothesis on every trajectory, fit its closed form, score the corrected model.
-    Every candidate of a round resamples with the same ``seed``."""
+    """Smooth one hypothesis on every trajectory, fit its closed form, refine its coefficients on the
+    measured channels, score the corrected model.  Every candidate of a round resamples with the
+    same ``seed``."""
+    started = time.perf_counter()
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
-    features, coefficients, samples, inclusion = _closed_form(
-        score.hypothesis, model, smoothed, obs, settings, np.random.default_rng(seed), rich
-    )
+    rng = np.random.default_rng(seed)
+    *fit, inclusion = _closed_form(score.hypothesis, model, smoothed, obs, settings, rng, rich)
+    features, coefficients, samples = _refined(score.hypothesis, model, obs, fit, smoothed, rich, rng)
     candidate = PartialCandidate(score, smoothed, features, coefficients, samples, inclusion)
     if not features:
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
-    tests_after, after = _tests(corrected, obs, settings)
+    tests_after, after = _tests(corrected, obs, settings, backward=False)
     likelihood = float(after.log_likelihood.sum())
     samples_measured = int(np.isfinite(obs.y).sum())
     flagged = [t.channel for t in tests if t.flagged]
@@ -195,6 +248,10 @@ def _fit(
     if np.isfinite(likelihood):
         candidate.bic_gain = 2 * (likelihood - base_likelihood) - len(features) * np.log(samples_measured)
     candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
+    log.info(
+        "%s: %s, BIC gain %.1f, in %.1f s",
+        score.hypothesis.key, candidate.formula, candidate.bic_gain, time.perf_counter() - started,
+    )  # fmt: skip
     return candidate
 
 
@@ -211,8 +268,13 @@ def discover_round(
     flagged = [t.channel for t in tests if t.flagged]
     if not flagged:
         return PartialRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
-    few = obs.subset(slice(0, settings.screen_trajectories))
-    screened, _ = score_hypotheses(model, candidate_hypotheses(model), few, settings.window, settings.walks)
+    screen = slice(0, max(1, settings.screen_steps // obs.y.shape[1]))
+    few, states = obs.subset(screen), base.mean[screen]
+    started = time.perf_counter()
+    screened, _ = score_hypotheses(model, candidate_hypotheses(model), few, settings.window, states, settings.walks)
+    log.info(
+        "screened %d hypotheses on %d trajectories in %.1f s", len(screened), len(few.y), time.perf_counter() - started
+    )
     cut = screened[min(settings.partial_candidates, len(screened)) - 1].log_likelihood_gain if screened else np.inf
     seed = rng.integers(2**63)
     base_likelihood = float(base.log_likelihood.sum())
@@ -236,9 +298,7 @@ def discover_round(
     x = base.mean[..., :8]
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
     chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
-    different = [
-        c for c in equivalent if not _same_physics(c.hypothesis, chosen.hypothesis, model, x[:, ::16], obs.u[:, ::16])
-    ]
+    different = [c for c in equivalent if not _same_physics(c, chosen, model, x[:, ::16], obs.u[:, ::16])]
     separated = None
     if different:
         histories = [c.smoothed.mean[..., :8] for c in [chosen, *different]]

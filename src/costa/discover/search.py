@@ -77,7 +77,9 @@ class DiscoverySettings:
     noise_draws: int = 8  # Monte Carlo draws for the residual's noise scale
     equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
     new_mechanism_margin: float = 0.05  # a new effect must gain this share more BIC than refining a named one
-    screen_trajectories: int = 8  # partial measurements: trajectories on which every hypothesis is scored first
+    screen_steps: int = (
+        40_000  # partial measurements: every hypothesis is scored first on trajectories of this many steps in all
+    )
     partial_candidates: int = 4  # ... the best so many get a closed form, fitted and scored on all trajectories
     walks: tuple[float, ...] = (0.3, 3.0)  # ... random-walk steps of a hypothesis' delta, in noise stds per window
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
