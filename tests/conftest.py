@@ -30,6 +30,8 @@ def on_smoke(command: str) -> str:
     if "--configfile " in command:
         return command.replace("--configfile ", f"--configfile {SMOKE_CONFIG} ", 1)
     return f"{command} --configfile {SMOKE_CONFIG}"
+
+
 #: Wall-clock seconds of the runs the tests start, by name (the SLURM test reports them side by side).
 TIMINGS: dict[str, float] = {}
 
@@ -126,7 +128,11 @@ def run_command(
 
 def snakemake(workdir: Path, *args: str, check: bool = True, env: dict | None = None) -> subprocess.CompletedProcess:
     """Snakemake with 2 cores in ``workdir``: the workflow there (a repository copy), else this repository's."""
-    where = [] if (workdir / "Snakefile").exists() else ["--snakefile", str(REPOSITORY / "Snakefile"), "--directory", str(workdir)]
+    where = (
+        []
+        if (workdir / "Snakefile").exists()
+        else ["--snakefile", str(REPOSITORY / "Snakefile"), "--directory", str(workdir)]
+    )
     result = subprocess.run(
         [sys.executable, "-m", "snakemake", *where, "--cores", "2", *args],
         capture_output=True, text=True, cwd=workdir, env=env,

@@ -39,7 +39,9 @@ def _free_port() -> int:
 
 def _memory_mb() -> int:
     """RealMemory of the node: 90 % of this machine's memory (slurmd drains a node that claims more)."""
-    total_kb = int(next(line for line in Path("/proc/meminfo").read_text().splitlines() if line.startswith("MemTotal")).split()[1])
+    total_kb = int(
+        next(line for line in Path("/proc/meminfo").read_text().splitlines() if line.startswith("MemTotal")).split()[1]
+    )
     return int(total_kb / 1024 * 0.9)
 
 

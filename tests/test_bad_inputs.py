@@ -63,6 +63,7 @@ CONFIGS = [
      "invalid config at 'discovery.user_data.held_out_fraction': 1.0 is greater than or equal to the maximum of 1"),
 ]  # fmt: skip
 
+
 def _drop_u3(t):
     return t.drop(columns="u3")
 

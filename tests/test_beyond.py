@@ -159,8 +159,12 @@ def test_bounded_and_smoothed_types_train_save_and_reload(smoke_config, smoke_tr
     x, u = smoke_train
     config = copy.deepcopy(smoke_config)
     config["training"]["model_types"] = {
-        "costa_bounded": {"target": "costa", "l1_lambda": 1e-4, "source_bound": {"margin": 0.0, "inputs": True},
-                          "rate_bound": {"margin": 0.0}},
+        "costa_bounded": {
+            "target": "costa",
+            "l1_lambda": 1e-4,
+            "source_bound": {"margin": 0.0, "inputs": True},
+            "rate_bound": {"margin": 0.0},
+        },
         "costa_smooth": {"target": "costa", "l1_lambda": 1e-4, "savgol": {"window": 11, "order": 2}},
     }
     for name in config["training"]["model_types"]:

@@ -68,7 +68,10 @@ def check_target_is_built(command, smoke_run, tmp_path):
     """The command in the smoke run's folder: its target is a target of the workflow, built and up to date."""
     result = run_command(smoke_run, on_smoke(command))
     assert result.returncode == 0, result.stderr[-4000:]
-    assert "Nothing to be done" in result.stdout + result.stderr and (smoke_run / on_smoke(command).split()[-3]).stat().st_size > 0
+    assert (
+        "Nothing to be done" in result.stdout + result.stderr
+        and (smoke_run / on_smoke(command).split()[-3]).stat().st_size > 0
+    )
 
 
 def check_report(command, smoke_run, tmp_path):
