@@ -213,6 +213,7 @@ def score_hypotheses(
     n = obs.y.shape[0]
     pairs, result = _filter(model, hypotheses, scales, obs, window, walks, backward=False)
     totals = result.log_likelihood.reshape(len(pairs), n).sum(-1)
+    totals = np.where(np.isnan(totals), -np.inf, totals)  # a row whose filter diverged explains nothing
     base = totals[0]
     best: dict[int, tuple[float, float]] = {}
     for (j, walk), total in zip(pairs[1:], totals[1:], strict=True):
