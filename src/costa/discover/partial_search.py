@@ -192,9 +192,7 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
         features = [*features, *doses]
         coefficients = np.append(coefficients, np.zeros(len(doses)))
         spread = [2 * size / max(mean, 1e-300) for mean in level]
-        samples = np.column_stack(
-            [samples, np.outer(np.ones(len(samples)), spread) * rng.standard_normal((len(samples), len(doses)))]
-        )
+        samples = np.column_stack([samples, rng.standard_normal((len(samples), len(doses))) * spread])
     while features:
         width = np.maximum(0.5 * np.abs(coefficients), 5 * samples.std(axis=0)) + 1e-300
         refined = refine_coefficients(model, h, features, coefficients, width, obs)
