@@ -58,6 +58,29 @@ def with_interval(value: float, low: float, high: float, spec: str = ".3g") -> s
     return f"{value:{spec}} [{low:{spec}}, {high:{spec}}]"
 
 
+def replicate_spread(model_types: list[str] | None = None) -> pd.DataFrame:
+    """The replicates' aggregate per model type and window (``model_types``: only these), with each
+    replicate's blow-ups side by side and the means with their 95 % intervals as text."""
+    per_replicate = pd.read_csv(inputs["replicate_table"][0])
+    spread = pd.read_csv(inputs["replicate_aggregate"][0])
+    if model_types is not None:
+        spread = spread[spread.model_type.isin(model_types)]
+    spread = spread.merge(
+        per_replicate.groupby(["model_type", "window"], sort=False)["blowups"]
+        .agg(lambda counts: ", ".join(map(str, counts)))
+        .rename("per replicate")
+        .reset_index()
+    )
+    spread["model"] = spread.model_type.map(model_label)
+    spread["blow-ups mean [95 %]"] = spread.apply(
+        lambda r: with_interval(r.blowups_mean, r.blowups_low, r.blowups_high, ".1f"), axis=1
+    )
+    spread["median mean [95 %]"] = spread.apply(
+        lambda r: with_interval(r.median_mean, r.median_low, r.median_high), axis=1
+    )
+    return spread
+
+
 sim, training, evaluation = config["simulation"], config["training"], config["evaluation"]
 
 # %% [markdown]
@@ -227,20 +250,7 @@ show(
 # %%
 if inputs.get("replicate_aggregate"):
     display(Image(filename=inputs["replicate_blowups"][0], width=950))
-    per_replicate = pd.read_csv(inputs["replicate_table"][0])
-    spread = pd.read_csv(inputs["replicate_aggregate"][0]).merge(
-        per_replicate.groupby(["model_type", "window"], sort=False)["blowups"]
-        .agg(lambda counts: ", ".join(map(str, counts)))
-        .rename("per replicate")
-        .reset_index()
-    )
-    spread["model"] = spread.model_type.map(model_label)
-    spread["blow-ups mean [95 %]"] = spread.apply(
-        lambda r: with_interval(r.blowups_mean, r.blowups_low, r.blowups_high, ".1f"), axis=1
-    )
-    spread["median AN-RFMSE mean [95 %]"] = spread.apply(
-        lambda r: with_interval(r.median_mean, r.median_low, r.median_high), axis=1
-    )
+    spread = replicate_spread().rename(columns={"median mean [95 %]": "median AN-RFMSE mean [95 %]"})
     show(
         spread[["model", "window", "per replicate", "blow-ups mean [95 %]", "blowups_sd", "paper_blowups",
                 "median AN-RFMSE mean [95 %]", "median_min", "median_max", "paper_median"]]
@@ -363,21 +373,7 @@ bounded = [t for t, c in training["model_types"].items() if c.get("source_bound"
 if bounded and "costa_sparse" in training["model_types"]:
     compared = ["costa_sparse", *bounded]
     if inputs.get("replicate_aggregate"):
-        per_replicate = pd.read_csv(inputs["replicate_table"][0])
-        spread = pd.read_csv(inputs["replicate_aggregate"][0])
-        spread = spread[spread.model_type.isin(compared)].merge(
-            per_replicate.groupby(["model_type", "window"], sort=False)["blowups"]
-            .agg(lambda counts: ", ".join(map(str, counts)))
-            .rename("per replicate")
-            .reset_index()
-        )
-        spread["model"] = spread.model_type.map(model_label)
-        spread["blow-ups mean [95 %]"] = spread.apply(
-            lambda r: f"{r.blowups_mean:.1f} [{r.blowups_low:.1f}, {r.blowups_high:.1f}]", axis=1
-        )
-        spread["median mean [95 %]"] = spread.apply(
-            lambda r: f"{r.median_mean:.3g} [{r.median_low:.3g}, {r.median_high:.3g}]", axis=1
-        )
+        spread = replicate_spread(compared)
         show(spread[["model", "window", "per replicate", "blow-ups mean [95 %]", "median mean [95 %]"]])
         long = spread[spread.window == "long"].set_index("model_type")
         display(
