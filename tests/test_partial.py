@@ -14,7 +14,9 @@ from costa.discover.cases import CASES
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.hypotheses import candidate_hypotheses
 from costa.discover.partial import Observations, channel_noise, hypothesis_scales
-from costa.discover.partial_pipeline import PartialResult
+from costa.discover.estimator import innovation_tests
+from costa.discover.observed import estimate_states
+from costa.discover.partial_pipeline import PartialResult, observations
 from costa.discover.partial_search import discover_round
 from costa.discover.pipeline import case_tables, run_discovery, starting_model
 from costa.discover.search import DiscoverySettings
@@ -165,3 +167,25 @@ def test_an_input_that_acts_now_and_then_is_visible_to_the_screen():
     tapping = [h for h in candidate_hypotheses(model) if h.key == "input:u4"]
     (scale,) = hypothesis_scales(model, tapping, obs, 64, trajectories.x)
     assert scale == pytest.approx(10.0 / (90.0 * np.sqrt(1 / 10)), rel=0.02)
+
+
+def test_a_pot_lines_first_state_is_searched_where_one_voltage_cannot_place_it(default_config):
+    """Plant sensors on a cell with nothing hidden: the cell voltage every step, the bath temperature
+    hourly, AlF3 and metal every 8 h.  A filter started at the nominal bath loses some cells within
+    minutes (the voltage is not monotonic in the alumina content, and one sample cannot place the
+    bath's masses); started from the likeliest point of the grid, every cell's filter holds and
+    its innovations pass as white unit noise, as a right model's must."""
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=12, trajectories=4, held_out_trajectories=1)
+    train, _ = case_tables(config, "no_effect", "plant")
+    obs = observations(train, {"x6": 1.5, "c3": 0.002, "x5": 15.0}, "plant")
+    model = starting_model(config, "full")
+    nominal = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward=False)
+    assert not np.isfinite(nominal.log_likelihood).all()
+    searched = obs.with_start(model)
+    assert searched.start.shape == (4, 8)
+    result = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, False, searched.start)
+    assert np.isfinite(result.log_likelihood).all()
+    assert not any(t.flagged for t in innovation_tests(result.innovation, obs.channels))
+    partial = observations(case_tables(_reduced(default_config, 200), "no_effect", "partial")[0], {}, "partial")
+    assert partial.with_start(model).start is None  # the composition is sampled: the prior places the masses

@@ -97,7 +97,7 @@ def _rollout_from_estimate(model: CellModel, obs: Observations, start_steps: int
     """Channels (n, K, C) of ``model`` rolled out from its smoothed estimate of the first state,
     made from the first ``start_steps`` samples only."""
     early = obs.y[:, :start_steps], obs.u[:, :start_steps]
-    first = estimate_states(model, *early, obs.channels, obs.noise, obs.dt).mean[:, :1]
+    first = estimate_states(model, *early, obs.channels, obs.noise, obs.dt, start=obs.start).mean[:, :1]
     start = np.concatenate([first, np.zeros((obs.y.shape[0], obs.y.shape[1] - 1, 8))], axis=1)
     with np.errstate(all="ignore"):
         return observe(model, rollout_physics(model, start, obs.u, obs.dt), obs.u, obs.channels)

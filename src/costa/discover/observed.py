@@ -5,6 +5,13 @@ as the data arise); the measured channels (:mod:`costa.sensors`) are read from t
 states, and the cell voltage from the model's own parts, so a model whose voltage
 is wrong shows it in the ``U_cell`` channel.  Unmeasured states start from a wide
 prior around a nominal operating point; measured ones from their first sample.
+
+Where the bath composition is not sampled at the first step (a pot line's voltage and
+hand samples hours apart), one voltage sample cannot place the alumina, AlF3 and bath
+masses: the voltage is not monotonic in the alumina content, and a filter linearised at
+the nominal point jumps to negative masses within a few steps.  There the first state
+is searched on a grid of compositions and bath masses (:data:`START_GRID`), each filtered
+over the first hour, and the likeliest start taken per trajectory (:func:`searched_start`).
 """
 
 from __future__ import annotations
@@ -19,13 +26,18 @@ from ..physics import CellModel
 from ..variables import STATES
 from .estimator import Smoothed, StateSpaceModel, smooth
 
-__all__ = ["NOMINAL_STATE", "PRIOR_STD", "cell_state_space", "estimate_states", "prior"]
+__all__ = ["NOMINAL_STATE", "PRIOR_STD", "START_GRID", "cell_state_space", "estimate_states", "prior", "searched_start"]
 
 #: a nominal operating point [kg x5, degC x3] and how far a cell may be from it (1 std) before anything is measured
 NOMINAL_STATE = np.array([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0, 580.0])
 PRIOR_STD = np.array([1000.0, 150.0, 400.0, 2500.0, 150.0, 10.0, 40.0, 40.0])
 #: process noise per step [state unit]: the model is trusted to this much per 10 s step
 PROCESS_STD = 1e-7 * NOMINAL_STATE
+#: first states tried where the composition is not sampled at the first step: Al2O3 and AlF3 mass
+#: fractions of the bath and the bath mass [kg], spanning the simulated cells' range (config/config.yaml)
+START_GRID = {"c2": (0.022, 0.03, 0.04, 0.05), "c3": (0.095, 0.11, 0.125), "bath": (12500.0, 15000.0)}
+#: the span of data [s] over which each start of the grid is filtered and scored
+START_SEARCH_S = 3600.0
 
 
 def cell_state_space(
@@ -67,6 +79,36 @@ def prior(y: np.ndarray, channels: Sequence[str]) -> tuple[np.ndarray, np.ndarra
     return mean, np.diag(PRIOR_STD**2)
 
 
+def searched_start(
+    model: CellModel, y: np.ndarray, u: np.ndarray, channels: Sequence[str], noise_std: np.ndarray, dt: float
+) -> np.ndarray | None:
+    """The likeliest first state (n, 8) on :data:`START_GRID`, each filtered over the first
+    :data:`START_SEARCH_S` of y (n, K, C); None where both fractions are sampled at the first step
+    of every trajectory (:func:`prior` then places the masses).  A fraction sampled at the first
+    step keeps its sample."""
+    first = {name: y[:, 0, c] for c, name in enumerate(channels)}
+    if all(name in first and np.isfinite(first[name]).all() for name in ("c2", "c3")):
+        return None
+    mean, cov = prior(y, channels)
+    grid = np.array(np.meshgrid(*START_GRID.values(), indexing="ij")).reshape(3, -1).T
+    missing = np.full(len(mean), np.nan)
+
+    def kept(name: str, value: float) -> np.ndarray:
+        return np.where(np.isfinite(first.get(name, missing)), first.get(name, missing), value)
+
+    starts = np.repeat(mean[None], len(grid), axis=0)  # (G, n, 8)
+    for g, (c2, c3, bath) in enumerate(grid):
+        c2, c3 = kept("c2", c2), kept("c3", c3)
+        starts[g, :, 1], starts[g, :, 2], starts[g, :, 3] = c2 * bath, c3 * bath, (1 - c2 - c3) * bath
+    steps = min(y.shape[1], max(1, round(START_SEARCH_S / dt)))
+    rows = len(grid) * len(mean)
+    space = cell_state_space(model, channels, noise_std, dt)
+    tiled = (np.tile(a[:, :steps], (len(grid), 1, 1)) for a in (y, u))
+    result = smooth(space, *tiled, starts.reshape(rows, 8), cov, backward=False)
+    likelihood = np.nan_to_num(result.log_likelihood.reshape(len(grid), -1), nan=-np.inf)
+    return starts[likelihood.argmax(0), np.arange(len(mean))]
+
+
 def estimate_states(
     model: CellModel,
     y: np.ndarray,
@@ -75,7 +117,11 @@ def estimate_states(
     noise_std: np.ndarray,
     dt: float,
     backward: bool = True,
+    start: np.ndarray | None = None,
 ) -> Smoothed:
     """Smoothed states (n, K, 8) of ``model`` given measured channels y (n, K, C) (NaN: not sampled);
-    ``backward`` False: the filter only (innovations and likelihood)."""
-    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, *prior(y, channels), backward=backward)
+    ``backward`` False: the filter only (innovations and likelihood); ``start`` (n, 8): the prior
+    mean of the first state (:func:`searched_start`), else :func:`prior`'s."""
+    mean, cov = prior(y, channels)
+    mean = mean if start is None else start
+    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, mean, cov, backward=backward)

@@ -18,6 +18,8 @@ units for every hypothesis.
 
 from __future__ import annotations
 
+import dataclasses
+
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -29,7 +31,7 @@ from ..physics import CellModel
 from .estimator import Smoothed, StateSpaceModel, smooth
 from .hypotheses import Hypothesis
 from .library import Feature
-from .observed import NOMINAL_STATE, PROCESS_STD, prior
+from .observed import NOMINAL_STATE, PROCESS_STD, prior, searched_start
 from .weak_form import estimate_noise
 
 __all__ = [
@@ -48,16 +50,30 @@ DELTA_PRIOR = 30.0
 
 @dataclass(frozen=True)
 class Observations:
-    """Measured channels y (n, K, C) (NaN: not sampled), inputs u (n, K, 5), noise std (C,), step dt [s]."""
+    """Measured channels y (n, K, C) (NaN: not sampled), inputs u (n, K, 5), noise std (C,), step dt [s];
+    ``start`` (n, 8): the prior mean of each first state where it was searched (:meth:`with_start`)."""
 
     y: np.ndarray
     u: np.ndarray
     channels: tuple[str, ...]
     noise: np.ndarray
     dt: float
+    start: np.ndarray | None = None
 
     def subset(self, trajectories: np.ndarray | slice) -> Observations:
-        return Observations(self.y[trajectories], self.u[trajectories], self.channels, self.noise, self.dt)
+        start = None if self.start is None else self.start[trajectories]
+        return Observations(self.y[trajectories], self.u[trajectories], self.channels, self.noise, self.dt, start)
+
+    def with_start(self, model: CellModel) -> Observations:
+        """These observations with each first state searched under ``model`` where one voltage
+        sample cannot place it (:func:`.observed.searched_start`)."""
+        start = searched_start(model, self.y, self.u, self.channels, self.noise, self.dt)
+        return dataclasses.replace(self, start=start)
+
+    def prior(self) -> tuple[np.ndarray, np.ndarray]:
+        """Prior mean (n, 8) and covariance (8, 8) of the first state."""
+        mean, cov = prior(self.y, self.channels)
+        return (mean if self.start is None else self.start), cov
 
 
 def channel_noise(y: np.ndarray, channels: Sequence[str], declared: Mapping[str, float]) -> np.ndarray:
@@ -101,8 +117,10 @@ def _space(
 
     def split(z, u):
         which = u[:, 5].astype(int)
-        for j, scale in enumerate(scales):
-            current[j] = np.where(which == j, z[:, 8] * scale, 0.0)
+        rows = np.flatnonzero(which >= 0)
+        deltas = np.zeros((len(scales), len(z)))  # row j: hypothesis j's delta, 0 on rows it does not own
+        deltas[which[rows], rows] = z[rows, 8] * scales[which[rows]]
+        current.update(enumerate(deltas))
         return z[:, :8], u[:, :5]
 
     def transition(z, u):
@@ -148,7 +166,7 @@ def hypothesis_scales(
         response = np.nan_to_num(np.abs(y[1:] - y[0]) / probe / obs.noise)  # noise stds per unit delta
         return np.sqrt(np.mean(response**2, axis=1)).max(-1)
 
-    x0, _ = prior(obs.y, obs.channels)
+    x0, _ = obs.prior()
     h_count = len(hypotheses)
     size = strongest(np.repeat(np.arange(-1, h_count), len(x0)), x0, obs.u[:, :window])
     silent = np.flatnonzero(size == 0)
@@ -183,7 +201,7 @@ def _rows(obs: Observations, hypotheses: Sequence[Hypothesis], walks: Sequence[f
     u = np.concatenate(
         [np.tile(obs.u, (reps, 1, 1)), np.broadcast_to(which[:, None, None], (n * reps, obs.u.shape[1], 1))], axis=-1
     )
-    mean, cov = prior(obs.y, obs.channels)
+    mean, cov = obs.prior()
     mean = np.concatenate([np.tile(mean, (reps, 1)), np.zeros((n * reps, 1))], axis=1)
     cov = np.tile(np.diag(np.append(np.diag(cov), DELTA_PRIOR**2)), (n * reps, 1, 1))
     cov[:, 8, 8] = np.where(which >= 0, DELTA_PRIOR**2, 0.0)
@@ -265,7 +283,7 @@ def refine_coefficients(
         return observe(corrected, split(z), u, obs.channels)
 
     n = obs.y.shape[0]
-    x0, cov0 = prior(obs.y, obs.channels)
+    x0, cov0 = obs.prior()
     prior_precision = np.diag(1.0 / width**2)
     space = StateSpaceModel(
         transition, measured, np.append(PROCESS_STD, np.zeros(p)), obs.noise, np.append(NOMINAL_STATE, width)

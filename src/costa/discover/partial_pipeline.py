@@ -82,6 +82,7 @@ def run_partial_discovery(
             f"{4 * settings.window + 1} (4 windows of discovery.window_steps = {settings.window})"
         )
     started = time.perf_counter()
+    obs, held = obs.with_start(start), held.with_start(start)
     rounds = discover_partial(start, obs, settings)
     seconds = time.perf_counter() - started
     corrected = next((r.corrected for r in reversed(rounds) if r.corrected is not None), start)
