@@ -150,7 +150,7 @@ class ChannelTest:
     """Whether one measured channel's standardised innovations look like white unit noise.
 
     ``chi2_per_dof``: mean square (1 under a correct model); ``bias_z``: the mean in
-    standard errors; ``whiteness_z``: the lag-1..``lags`` autocorrelation's Ljung-Box
+    standard errors; ``whiteness_z``: the lag-1..``lags`` autocorrelation's Box-Pierce
     statistic as a z-score.  ``flagged``: any of the three beyond ``z_threshold``, and the
     excess material (chi-square above ``1 + min_excess`` or a mean beyond sqrt(min_excess)).
     """
@@ -165,10 +165,12 @@ class ChannelTest:
     flagged: bool
 
 
-def _ljung_box_z(e: np.ndarray, lags: int) -> float:
-    """Ljung-Box statistic of the (n, K) innovations with NaN gaps, as a z-score of chi2(lags)."""
-    statistic, count = 0.0, np.isfinite(e).sum()
-    if count <= lags + 1:
+def _box_pierce_z(e: np.ndarray, lags: int) -> float:
+    """Box-Pierce statistic of the (n, K) innovations with NaN gaps, pooled over trajectories, as a
+    z-score of chi2: each lag's autocorrelation is weighted by its own number of pairs (its variance
+    is 1/pairs under whiteness), so six samples a trajectory do not count as the pooled total."""
+    statistic, used = 0.0, 0
+    if np.isfinite(e).sum() <= lags + 1:
         return 0.0
     centred = e - np.nanmean(e)
     variance = np.nanmean(centred**2)
@@ -177,8 +179,8 @@ def _ljung_box_z(e: np.ndarray, lags: int) -> float:
         pairs = np.isfinite(products).sum()
         if pairs:
             rho = np.nansum(products) / pairs / variance
-            statistic += count * (count + 2) * rho**2 / max(count - lag, 1)
-    return float((statistic - lags) / np.sqrt(2 * lags))
+            statistic, used = statistic + pairs * rho**2, used + 1
+    return float((statistic - used) / np.sqrt(2 * used)) if used else 0.0
 
 
 def innovation_tests(
@@ -205,7 +207,7 @@ def innovation_tests(
         z = (chi2 - 1) / np.sqrt(2 / count)
         bias = float(np.nanmean(e))
         bias_z = bias * np.sqrt(count)
-        white = _ljung_box_z(packed, lags)
+        white = _box_pierce_z(packed, lags)
         significant = max(z, abs(bias_z), white) > z_threshold
         material = chi2 - 1 > min_excess or bias**2 > min_excess
         tests.append(
