@@ -148,12 +148,12 @@ class CellModel:
         """The constants at these samples: rescaled where a property correction applies."""
         if not self.properties:
             return self.params
-        constants = dataclasses.asdict(self.params)
+        changed: dict[str, Array] = {}
         for correction in self.properties:
             factor = 1 + correction.fn(v)
             for name, exponent in correction.property.exponents.items():
-                constants[name] = constants[name] * factor**exponent
-        return CellParameters(**constants)
+                changed[name] = changed.get(name, getattr(self.params, name)) * factor**exponent
+        return dataclasses.replace(self.params, **changed)
 
     def _evaluate(self, v: CellVariables) -> tuple[CellParameters, dict[str, Array]]:
         k = self._parameters(v)
