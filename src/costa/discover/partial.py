@@ -19,7 +19,6 @@ units for every hypothesis.
 from __future__ import annotations
 
 import dataclasses
-
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
