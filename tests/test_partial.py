@@ -5,17 +5,18 @@ from __future__ import annotations
 import copy
 import json
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from costa.config import load_config
 from costa.discover.cases import CASES
+from costa.discover.estimator import innovation_tests
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.hypotheses import candidate_hypotheses
-from costa.discover.partial import Observations, channel_noise, hypothesis_scales
-from costa.discover.estimator import innovation_tests
 from costa.discover.observed import estimate_states
+from costa.discover.partial import Observations, channel_noise, hypothesis_scales
 from costa.discover.partial_pipeline import PartialResult, observations
 from costa.discover.partial_search import discover_round
 from costa.discover.pipeline import case_tables, run_discovery, starting_model
@@ -189,3 +190,17 @@ def test_a_pot_lines_first_state_is_searched_where_one_voltage_cannot_place_it(d
     assert not any(t.flagged for t in innovation_tests(result.innovation, obs.channels))
     partial = observations(case_tables(_reduced(default_config, 200), "no_effect", "partial")[0], {}, "partial")
     assert partial.with_start(model).start is None  # the composition is sampled: the prior places the masses
+
+
+def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves():
+    """BIC differences are evidence only under a likelihood that fits: the window grows by the best
+    correction's mean square innovation over all samples (as QAIC divides by c-hat), never shrinks."""
+    from costa.discover.estimator import ChannelTest
+    from costa.discover.partial_search import _dispersion
+
+    def best(*tests):
+        return [SimpleNamespace(tests_after=[ChannelTest(c, n, chi2, 0, 0, 0, 0, False) for c, n, chi2 in tests])]
+
+    assert _dispersion(best(("U_cell", 1000, 400.0), ("x6", 10, 1.0))) == pytest.approx(400_010 / 1010)
+    assert _dispersion(best(("U_cell", 1000, 0.9))) == 1.0
+    assert _dispersion([]) == 1.0

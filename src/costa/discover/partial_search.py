@@ -14,7 +14,8 @@ One round on the current model:
    model scored by the BIC gain of its own likelihood of the measured channels, as the
    full-data route scores a correction by its exact residual;
 4. corrections within ``equivalence`` BIC of the best explain the measured channels
-   equally well.  If they are the same physics (their effects on every state rate are
+   equally well (the window widened by the best correction's remaining misfit, :func:`_dispersion`:
+   where even the best leaves the innovations far from white, BIC differences are not evidence).  If they are the same physics (their effects on every state rate are
    proportional: a flow into the bath's energy balance and the same change of the
    electric power), the cause is named as on full data.  If not, the measurements
    cannot tell them apart: the round says so, names none, lists them and says which
@@ -108,6 +109,16 @@ def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
     """Summed excess of the channels' innovations beyond white unit noise (variance and bias)."""
     by_name = {t.channel: t for t in tests}
     return sum(max(by_name[c].chi2_per_dof - 1, 0.0) + by_name[c].bias ** 2 for c in channels if c in by_name)
+
+
+def _dispersion(ranking: Sequence[PartialCandidate]) -> float:
+    """The best correction's remaining misfit: the mean square of its standardised innovations over
+    every measured sample (at least 1).  Where even the best leaves the channels far from white
+    noise, the likelihood is misspecified, and differences of BIC shrink by this factor before they
+    count as evidence (a quasi-likelihood, as QAIC divides by the overdispersion c-hat)."""
+    tests = ranking[0].tests_after if ranking else []
+    samples = sum(t.samples for t in tests)
+    return max(1.0, sum(t.chi2_per_dof * t.samples for t in tests) / samples) if samples else 1.0
 
 
 def _same_physics(a: PartialCandidate, b: PartialCandidate, model: CellModel, x: np.ndarray, u: np.ndarray) -> bool:
@@ -212,7 +223,7 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
 def _tests(
     model: CellModel, obs: Observations, settings: DiscoverySettings, backward: bool = True
 ) -> tuple[list[ChannelTest], Smoothed]:
-    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward)
+    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward, obs.start)
     return innovation_tests(smoothed.innovation, obs.channels, settings.z_threshold, settings.min_excess), smoothed
 
 
@@ -282,7 +293,8 @@ def discover_round(
         if s.log_likelihood_gain >= cut and s.log_likelihood_gain > 0
     ]
     ranking.sort(key=lambda c: -c.bic_gain)
-    good = [c for c in ranking if c.features and c.bic_gain >= ranking[0].bic_gain - settings.equivalence]
+    dispersion = _dispersion(ranking)
+    good = [c for c in ranking if c.features and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion]
     if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
         best = (
             f"the best, {ranking[0].hypothesis.key}, removes {ranking[0].explained:.0%} of the excess"
