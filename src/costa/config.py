@@ -132,6 +132,8 @@ def check_user_data(config: Mapping[str, Any]) -> None:
         split_held_out(user["path"], user["held_out_fraction"])
     except TrajectoryDataError as error:
         raise TrajectoryDataError(f"invalid data at 'discovery.user_data.path': {error}") from None
+
+
 def _check_peers(config: Mapping[str, Any]) -> None:
     from .discover.unshipped import find_case
 

@@ -59,7 +59,9 @@ class NetworkModel:
         bound = self.model_type.source_bound
         if bound is not None:
             if n.target_low is None or n.input_low is None:
-                raise ValueError(f"{self.model_type.name}: a source bound needs the training ranges in its normalisation")
+                raise ValueError(
+                    f"{self.model_type.name}: a source bound needs the training ranges in its normalisation"
+                )
             width = bound["margin"] * (n.target_high - n.target_low)
             inputs = (n.input_low, n.input_high) if bound["inputs"] else None
             self._bounds = tuple(

@@ -14,7 +14,16 @@ from .style import TRUTH_COLOR, model_color, model_label
 
 
 def _order(metrics: pd.DataFrame) -> tuple[list[str], list[str]]:
-    known = ["ddm_dense", "ddm_sparse", "costa_dense", "costa_sparse", "costa_bounded", "costa_smooth", "pbm", "discovered"]
+    known = [
+        "ddm_dense",
+        "ddm_sparse",
+        "costa_dense",
+        "costa_sparse",
+        "costa_bounded",
+        "costa_smooth",
+        "pbm",
+        "discovered",
+    ]
     present = list(dict.fromkeys(metrics["model_type"]))
     types = [t for t in known if t in present] + [t for t in present if t not in known]
     return types, list(dict.fromkeys(metrics["window"]))
