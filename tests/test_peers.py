@@ -16,7 +16,7 @@ from costa.discover import CASES, add_noise
 from costa.discover.findings import findings
 from costa.discover.pipeline import case_tables, run_discovery, starting_model
 from costa.discover.reference import train_costa
-from costa.discover.truth import TRUTHS, changed_equations, term_variables
+from costa.discover.truth import TRUTHS, changed_equations, correction_variables, term_variables
 from costa.discover.unshipped import UNSHIPPED, find_case
 from costa.metrics import EvaluationSettings, state_scale
 from costa.peers.compare import METHODS, compare_case
@@ -82,6 +82,8 @@ def test_truths_are_facts_about_the_models(model, rng):
     # -22 (x6 - 35) W in the library's centred terms
     assert TRUTHS["top_heat_loss"].coefficients["term:bath_energy"] == {"1": -22 * (970 - 35), "(x6 - 970)": -22}
     assert term_variables("u1*superheat") == {"u1", "superheat"} and term_variables("own*(c3 - 0.11)") == {"c3"}
+    assert correction_variables("input:u1", "1") == {"u1"}  # a feeder's gain reads the feed
+    assert correction_variables("term:alumina_mass", "u1*superheat") == {"u1", "superheat"}
     assert set(CASES) | set(UNSHIPPED) <= set(TRUTHS)
 
 

@@ -20,7 +20,7 @@ import numpy as np
 from ..physics import CellModel
 from ..variables import STATES
 
-__all__ = ["TRUTHS", "Truth", "changed_equations", "term_variables"]
+__all__ = ["TRUTHS", "Truth", "changed_equations", "correction_variables", "term_variables"]
 
 
 @dataclass(frozen=True)
@@ -100,6 +100,13 @@ def term_variables(term: str) -> frozenset[str]:
         if token in _VARIABLES:
             names.add(token)
     return frozenset(names)
+
+
+def correction_variables(representation: str, term: str) -> frozenset[str]:
+    """What a fitted term of a correction reads: the term's variables, and the input itself for a
+    gain on an input (``input:u1``'s constant term -0.08 is the flow -0.08 u1)."""
+    kind, _, target = representation.partition(":")
+    return term_variables(term) | (frozenset({target}) if kind == "input" else frozenset())
 
 
 def changed_equations(model: CellModel, start: CellModel, x: np.ndarray, u: np.ndarray) -> tuple[str, ...]:

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from ..discover.hypotheses import candidate_hypotheses
-from ..discover.truth import Truth, changed_equations, term_variables
+from ..discover.truth import Truth, changed_equations, correction_variables
 from ..physics import BALANCES, CellModel
 from .sparse import SparseFit
 
@@ -111,8 +111,8 @@ def score(
     allowed = None if truth.variables is None or truth.also is None else truth.variables | truth.also
     variables: set[str] = set()
     spurious = 0
-    for _, equations, term, _ in answer["terms"]:
-        reads = term_variables(term)
+    for representation, equations, term, _ in answer["terms"]:
+        reads = correction_variables(representation, term)
         variables |= reads
         outside = not set(equations or changed) & set(true_equations)
         spurious += bool(outside or (allowed is not None and not reads <= allowed))
