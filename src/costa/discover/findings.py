@@ -123,6 +123,7 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
         "verdict": r.verdict,
         "identifiable": r.identifiable,
         "separated_by": r.separated_by,
+        "misfit_after_best": round(r.dispersion, 3),
         "named": None,
         "correction": None,
         "equivalent": [_partial_candidate(c, r.model) for c in r.equivalent],
@@ -400,6 +401,9 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
         ]
         if r["separated_by"]:
             lines.append(f"- measuring `{r['separated_by']}` would separate them")
+    if r.get("misfit_after_best", 1.0) > 1.0:
+        lines += ["", f"The best correction still leaves a mean square innovation of {r['misfit_after_best']:.3g} "
+                  f"(1 under a right model): BIC differences count {r['misfit_after_best']:.3g} times less as evidence."]  # fmt: skip
     if r["alternatives"]:
         lines += ["", "Runners-up:"]
         lines += [

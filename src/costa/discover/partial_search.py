@@ -20,7 +20,7 @@ One round on the current model:
    electric power), the cause is named as on full data.  If not, the measurements
    cannot tell them apart: the round says so, names none, lists them and says which
    unmeasured channel would separate them; the best one still corrects the model for
-   forecasting, and goes into the next round.
+   forecasting, and the rounds stop there.
 """
 
 from __future__ import annotations
@@ -80,7 +80,8 @@ class PartialRound:
     ``ranking``: the fitted candidates, best BIC gain first; ``equivalent``: those as good as
     the chosen one; ``identifiable`` False when they are different physics (nothing is named
     then, though ``chosen`` corrects the model); ``separated_by``: the unmeasured channel that
-    would tell them apart.
+    would tell them apart; ``dispersion``: the best correction's remaining misfit
+    (:func:`_dispersion`), by which the equivalence window was widened.
     """
 
     model: CellModel
@@ -91,6 +92,7 @@ class PartialRound:
     identifiable: bool
     separated_by: str | None
     verdict: str
+    dispersion: float = 1.0
 
     @property
     def flagged(self) -> list[str]:
@@ -304,7 +306,7 @@ def discover_round(
         verdict = f"channels {flagged} disagree beyond noise, but no candidate explains them" + (
             f": {best}" if best else ""
         )
-        return PartialRound(model, tests, ranking, None, [], True, None, verdict)
+        return PartialRound(model, tests, ranking, None, [], True, None, verdict, dispersion)
     x = base.mean[..., :8]
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
     chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
@@ -320,12 +322,13 @@ def discover_round(
     else:
         what = chosen.hypothesis.describe(model)
     verdict = f"{what}; the correction removes {chosen.explained:.0%} of the flagged channels' excess"
-    return PartialRound(model, tests, ranking, chosen, equivalent, not different, separated, verdict)
+    return PartialRound(model, tests, ranking, chosen, equivalent, not different, separated, verdict, dispersion)
 
 
 def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySettings) -> list[PartialRound]:
     """Rounds until no channel disagrees, nothing explains it, a correction explains too little,
-    or ``max_rounds``."""
+    the measurements cannot tell the explanations apart (a further round would explain what is
+    left of a guess), or ``max_rounds``."""
     rng = np.random.default_rng(settings.seed)
     rounds: list[PartialRound] = []
     current, rich = model, False
@@ -333,7 +336,7 @@ def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySet
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
         found = discover_round(current, obs, settings, rng, rich, named)
         rounds.append(found)
-        if found.chosen is None:
+        if found.chosen is None or not found.identifiable:
             break
         current = found.corrected
         rich = any(t.flagged for t in found.chosen.tests_after)
