@@ -14,10 +14,11 @@ One round on the current model:
    model scored by the BIC gain of its own likelihood of the measured channels, as the
    full-data route scores a correction by its exact residual;
 4. corrections within ``equivalence`` BIC of the best explain the measured channels
-   equally well (the window widened by the best correction's remaining misfit, :func:`_dispersion`:
-   where even the best leaves the innovations far from white, BIC differences are not evidence).  If they are the same physics (their effects on every state rate are
-   proportional: a flow into the bath's energy balance and the same change of the
-   electric power), the cause is named as on full data.  If not, the measurements
+   equally well (the window widened by the best correction's remaining misfit,
+   :func:`_dispersion`: where even the best leaves the innovations far from white, BIC
+   differences are not evidence).  If they are the same physics (their effects on every
+   state rate are proportional: a flow into the bath's energy balance and the same change
+   of the electric power), the cause is named as on full data.  If not, the measurements
    cannot tell them apart: the round says so, names none, lists them and says which
    unmeasured channel would separate them; the best one still corrects the model for
    forecasting, and the rounds stop there.
