@@ -58,12 +58,13 @@ def cell_state_space(
     )
 
 
-def prior(y: np.ndarray, channels: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+def prior(y: np.ndarray, channels: Sequence[str], start: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Prior mean (n, 8) and covariance (8, 8) of the first state, given the measurements y (n, K, C).
 
     A state measured at the first step starts there (with its prior std kept: the
     measurement update weighs it); with both fractions measured, the Al2O3 and AlF3
-    masses start at the fractions of the nominal bath mass.
+    masses start at the fractions of the nominal bath mass; ``start`` (n, 8), where given
+    (:func:`searched_start`), replaces the mean.
     """
     n = y.shape[0]
     mean = np.tile(NOMINAL_STATE, (n, 1))
@@ -76,7 +77,7 @@ def prior(y: np.ndarray, channels: Sequence[str]) -> tuple[np.ndarray, np.ndarra
         if name in first:
             mean[:, index] = np.where(np.isfinite(first[name]), first[name] * bath, mean[:, index])
     mean[:, 3] = bath - mean[:, 1] - mean[:, 2]
-    return mean, np.diag(PRIOR_STD**2)
+    return (mean if start is None else start), np.diag(PRIOR_STD**2)
 
 
 def searched_start(
@@ -122,6 +123,4 @@ def estimate_states(
     """Smoothed states (n, K, 8) of ``model`` given measured channels y (n, K, C) (NaN: not sampled);
     ``backward`` False: the filter only (innovations and likelihood); ``start`` (n, 8): the prior
     mean of the first state (:func:`searched_start`), else :func:`prior`'s."""
-    mean, cov = prior(y, channels)
-    mean = mean if start is None else start
-    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, mean, cov, backward=backward)
+    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, *prior(y, channels, start), backward=backward)

@@ -71,8 +71,7 @@ class Observations:
 
     def prior(self) -> tuple[np.ndarray, np.ndarray]:
         """Prior mean (n, 8) and covariance (8, 8) of the first state."""
-        mean, cov = prior(self.y, self.channels)
-        return (mean if self.start is None else self.start), cov
+        return prior(self.y, self.channels, self.start)
 
 
 def channel_noise(y: np.ndarray, channels: Sequence[str], declared: Mapping[str, float]) -> np.ndarray:
