@@ -22,6 +22,7 @@ from costa.metrics import EvaluationSettings, state_scale
 from costa.peers.compare import METHODS, compare_case
 from costa.peers.methods import PeerSettings, pysindy_peer, ude_peer
 from costa.peers.score import COLUMNS, DASH
+from costa.peers.sparse import FEATURES, SparseFit, corrected_per_row
 from costa.physics import BalanceTerm
 from costa.simulate import simulate_set
 
@@ -72,6 +73,24 @@ def test_ude_recovers_a_missing_flow(model, heat_loss_data, evaluation, default_
     )
     found = _bath_energy_terms(result)
     assert found.get("1") == pytest.approx(LOSS["1"], rel=0.2), result.fit.terms()
+
+
+def test_a_grid_of_fits_rolls_out_as_each_fit_alone(model, heat_loss_data):
+    """The batched validation: block g of the stacked model is fit g's own corrected model."""
+    x, u, dt = heat_loss_data
+    rng = np.random.default_rng(0)
+    fits = []
+    for kept in (3, 0, 5):  # a fit with no term leaves its block on the starting model
+        coefficients = np.zeros((8, len(FEATURES)))
+        for i, j in zip(rng.integers(0, 8, kept), rng.choice(len(FEATURES), kept, replace=False), strict=True):
+            coefficients[i, j] = rng.normal() * 1e-3
+        fits.append(SparseFit(coefficients, coefficients != 0))
+    states, inputs = x[:2, ::50], u[:2, ::50]
+    stacked = corrected_per_row(model, fits, 2, "grid").rhs(np.tile(states, (3, 1, 1)), np.tile(inputs, (3, 1, 1)))
+    for g, fit in enumerate(fits):
+        alone = fit.corrected(model, "one").rhs(states, inputs)
+        np.testing.assert_allclose(stacked[2 * g : 2 * g + 2], alone, rtol=1e-12)
+    assert fits[1].corrected(model, "none") is model
 
 
 def test_truths_are_facts_about_the_models(model, rng):

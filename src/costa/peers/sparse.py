@@ -16,6 +16,7 @@ serves all eight balances; coefficients are reported in physical units.  The cor
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +27,7 @@ from ..discover.library import Feature, evaluate, feature_library
 from ..physics import BALANCES, BalanceTerm, CellModel, CellVariables
 from ..variables import STATES
 
-__all__ = ["FEATURES", "SparseFit", "design", "fit_sparse"]
+__all__ = ["FEATURES", "SparseFit", "corrected_per_row", "design", "fit_sparse"]
 
 #: the candidate terms of a flow into a balance (our discovery's first-round flow library)
 FEATURES: list[Feature] = feature_library(relative=False)
@@ -65,34 +66,63 @@ class SparseFit:
 
     def corrected(self, start: CellModel, name: str) -> CellModel:
         """``start`` with one flow per changed balance: sum_k xi_k theta_k."""
-        used = np.flatnonzero(np.abs(self.coefficients).sum(0))
-        shared = _SharedTerms([FEATURES[j] for j in used])
-        terms = []
-        for i, balance in enumerate(_BALANCE_NAMES):
-            kept = np.flatnonzero(self.coefficients[i, used])
-            if not kept.size:
-                continue
-            values = [float(c) for c in self.coefficients[i, used[kept]]]
-
-            def flow(v, k, q, kept=kept, values=values):
-                terms = shared(v, q)
-                return sum(c * terms[j] for j, c in zip(kept, values, strict=True))
-
-            formula = Hypothesis.formula([FEATURES[j] for j in used[kept]], values)
-            terms.append(BalanceTerm(f"{name}_{balance}", formula, BALANCES[balance][1], {balance: 1.0}, flow))
-        return start.with_terms(*terms, model_name=f"{start.name}+{name}") if terms else start
+        return corrected_per_row(start, [self], None, name)
 
 
-class _SharedTerms:
-    """The terms of every balance's flow, evaluated once per model evaluation (the last one is kept)."""
+def corrected_per_row(start: CellModel, fits: Sequence[SparseFit], rows: int | None, name: str) -> CellModel:
+    """``start`` corrected by each fit in turn on its own block of ``rows`` samples.
 
-    def __init__(self, features: list[Feature]):
-        self.features, self._samples, self._values = features, None, []
+    With ``rows`` set, the model takes states (len(fits) * rows, ..., 8) and rows
+    [g * rows, (g + 1) * rows) carry fit g's correction, so that a whole grid of fits is
+    rolled out in one batch; with ``rows`` None there must be one fit, applied to any shape.
+    """
+    coefficients = np.stack([fit.coefficients for fit in fits])  # (G, 8, P)
+    used = np.flatnonzero(np.abs(coefficients).sum((0, 1)))
+    if not used.size:
+        return start
+    if rows is None:
+        (coefficients,) = coefficients
+    else:
+        coefficients = np.repeat(coefficients, rows, axis=0)
+    shared = _SharedFlows([FEATURES[j] for j in used], coefficients[..., used])
+    terms = []
+    for i, balance in enumerate(_BALANCE_NAMES):
+        kept = np.flatnonzero(np.abs(coefficients[..., i, used]).reshape(-1, used.size).sum(0))
+        if not kept.size:
+            continue
+        if rows is None:
+            formula = Hypothesis.formula(
+                [FEATURES[j] for j in used[kept]], [float(c) for c in coefficients[i, used[kept]]]
+            )
+        else:
+            formula = f"one of {len(fits)} fits per block of {rows} rows"
 
-    def __call__(self, v: CellVariables, q) -> list:
+        def flow(v, k, q, i=i):
+            return shared(v, q)[..., i]
+
+        terms.append(BalanceTerm(f"{name}_{balance}", formula, BALANCES[balance][1], {balance: 1.0}, flow))
+    return start.with_terms(*terms, model_name=f"{start.name}+{name}")
+
+
+class _SharedFlows:
+    """Every balance's flow sum_k xi_k theta_k (..., 8), evaluated once per model evaluation
+    (the last one is kept): the terms (..., T) against coefficients (8, T), or row by row
+    against coefficients (rows, 8, T) for states (rows, ..., 8)."""
+
+    def __init__(self, features: list[Feature], coefficients: np.ndarray):
+        self.features, self.coefficients = features, coefficients
+        self._samples, self._flows = None, None
+
+    def __call__(self, v: CellVariables, q) -> np.ndarray:
         if v is not self._samples:
-            self._samples, self._values = v, [f(v, q, None) for f in self.features]
-        return self._values
+            terms = np.stack(np.broadcast_arrays(v.x1, *(f(v, q, None) for f in self.features))[1:], axis=-1)
+            coefficients = self.coefficients
+            if coefficients.ndim == 3:  # one row of fits per leading row of the states
+                coefficients = coefficients.reshape(
+                    len(coefficients), *(1,) * (terms.ndim - 2), *coefficients.shape[1:]
+                )
+            self._samples, self._flows = v, np.einsum("...t,...bt->...b", terms, coefficients)
+        return self._flows
 
 
 def fit_sparse(designs: np.ndarray, targets: np.ndarray, threshold: float, ensemble: int, seed: int) -> SparseFit:
