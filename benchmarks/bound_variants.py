@@ -25,6 +25,7 @@ from costa.models import NetworkModel, load_models
 from costa.physics import model_from_config
 from costa.train import training_data
 
+
 def _source(margin: float, inputs: bool = False) -> dict:
     return {"margin": margin, "inputs": inputs}
 
