@@ -91,3 +91,27 @@ def test_innovations_of_the_true_model_pass_and_a_wrong_model_is_flagged():
     wrong = StateSpaceModel(lambda z, u: z @ a.T, model.observe, model.process_std, model.noise_std, model.scale)
     tests = {t.channel: t for t in innovation_tests(smooth(wrong, y, u, *prior).innovation, ["first", "second"])}
     assert tests["first"].flagged and tests["first"].chi2_per_dof > 1.5
+
+
+def test_a_trajectory_whose_covariance_turns_singular_does_not_stop_the_others():
+    """A state held without process noise that one trajectory's dynamics wipe out (its row of the
+    transition's Jacobian is zero) leaves that trajectory a singular predicted covariance: the
+    smoother returns it as NaN, and the other trajectories exactly as when run alone."""
+    rng = np.random.default_rng(11)
+    _, a, b, h = _linear_system(rng)
+
+    def transition(z, u):
+        kept = (u[:, :1] < 100).astype(float)  # an input beyond 100 resets the third state to zero
+        return np.concatenate([z[:, :2] @ a[:2, :2].T + u @ b[:2].T, kept * z[:, 2:]], axis=1)
+
+    model = StateSpaceModel(transition, lambda z, u: z @ h.T, np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2]), np.ones(3))
+    n, steps = 3, 12
+    u = rng.normal(size=(n, steps, 1))
+    u[1, 5] = 1000.0
+    y = rng.normal(size=(n, steps, 2))
+    mean0, cov0 = rng.normal(size=(n, 3)), np.eye(3)
+    result = smooth(model, y, u, mean0, cov0)
+    assert np.isnan(result.mean[1, :6]).all()
+    alone = smooth(model, y[::2], u[::2], mean0[::2], cov0)
+    np.testing.assert_allclose(result.mean[::2], alone.mean, rtol=1e-12)
+    np.testing.assert_allclose(result.log_likelihood[::2], alone.log_likelihood, rtol=1e-12)

@@ -83,14 +83,14 @@ def _update(mean, cov, y, u, model: StateSpaceModel, step):
     r = np.broadcast_to(model.noise_std**2, y.shape)
     s = h @ cov @ np.swapaxes(h, 1, 2) + r[..., None] * np.eye(y.shape[1])
     s = 0.5 * (s + np.swapaxes(s, 1, 2))
-    gain = np.swapaxes(np.linalg.solve(s, h @ cov), 1, 2)  # P H^T S^-1 (S symmetric)
+    gain = np.swapaxes(_solve(s, h @ cov), 1, 2)  # P H^T S^-1 (S symmetric)
     new_mean = mean + np.einsum("blc,bc->bl", gain, residual)
     joseph = np.eye(mean.shape[1]) - gain @ h
     new_cov = joseph @ cov @ np.swapaxes(joseph, 1, 2) + (gain * r[:, None, :]) @ np.swapaxes(gain, 1, 2)
     # log N(residual; 0, S) over the measured channels (an unmeasured one has S_cc = r_c, residual 0)
     sign, logdet = np.linalg.slogdet(s)
     logdet = logdet - np.where(measured, 0.0, np.log(r)).sum(-1)
-    quadratic = np.einsum("bc,bc->b", residual, np.linalg.solve(s, residual[..., None])[..., 0])
+    quadratic = np.einsum("bc,bc->b", residual, _solve(s, residual[..., None])[..., 0])
     log_likelihood = -0.5 * (quadratic + logdet + measured.sum(-1) * np.log(2 * np.pi))
     innovation = np.where(measured, residual / np.sqrt(np.diagonal(s, axis1=1, axis2=2)), np.nan)
     return new_mean, 0.5 * (new_cov + np.swapaxes(new_cov, 1, 2)), innovation, log_likelihood
@@ -138,11 +138,26 @@ def smooth(
         for k in range(kept - 2, -1, -1):
             a = transitions[:, k]
             predicted_cov = a @ covs[:, k] @ np.swapaxes(a, 1, 2) + q
-            gain = np.swapaxes(np.linalg.solve(predicted_cov, a @ covs[:, k]), 1, 2)  # P A^T Ppred^-1
+            gain = np.swapaxes(_solve(predicted_cov, a @ covs[:, k]), 1, 2)  # P A^T Ppred^-1
             smoothed_mean[:, k] = means[:, k] + np.einsum("bij,bj->bi", gain, smoothed_mean[:, k + 1] - predicted[:, k])
             smoothed_cov[:, k] = covs[:, k] + gain @ (smoothed_cov[:, k + 1] - predicted_cov) @ np.swapaxes(gain, 1, 2)
     std = np.sqrt(np.clip(np.diagonal(smoothed_cov, axis1=2, axis2=3), 0.0, None))
     return Smoothed(smoothed_mean, std, innovation, log_likelihood, smoothed_cov[:, -1])
+
+
+def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a^-1 b for a batch of matrices; a trajectory whose filter diverged (a singular or
+    non-finite covariance) gets NaN instead of stopping the others."""
+    try:
+        return np.linalg.solve(a, b)
+    except np.linalg.LinAlgError:
+        out = np.full(np.broadcast_shapes(a.shape[:-1], b.shape[:-1]) + b.shape[-1:], np.nan)
+        for i in range(len(a)):
+            try:
+                out[i] = np.linalg.solve(a[i], b[i])
+            except np.linalg.LinAlgError:
+                pass
+        return out
 
 
 @dataclass(frozen=True)

@@ -295,7 +295,10 @@ def refine_coefficients(
         means, covs = result.mean[:, -1, 8:], result.final_cov[:, 8:, 8:]
         if not (np.isfinite(means).all() and np.isfinite(covs).all()):
             return None
-        precisions = np.linalg.inv(covs)
+        try:
+            precisions = np.linalg.inv(covs)
+        except np.linalg.LinAlgError:
+            return None
         total = precisions.sum(0) - (n - 1) * prior_precision
         if np.any(np.linalg.eigvalsh(0.5 * (total + total.T)) <= 0):
             return None
