@@ -104,7 +104,9 @@ def test_a_trajectory_whose_covariance_turns_singular_does_not_stop_the_others()
         kept = (u[:, :1] < 100).astype(float)  # an input beyond 100 resets the third state to zero
         return np.concatenate([z[:, :2] @ a[:2, :2].T + u @ b[:2].T, kept * z[:, 2:]], axis=1)
 
-    model = StateSpaceModel(transition, lambda z, u: z @ h.T, np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2]), np.ones(3))
+    model = StateSpaceModel(
+        transition, lambda z, u: z @ h.T, np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2]), np.ones(3)
+    )
     n, steps = 3, 12
     u = rng.normal(size=(n, steps, 1))
     u[1, 5] = 1000.0

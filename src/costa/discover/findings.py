@@ -92,11 +92,13 @@ def _coefficients(features, coefficients, intervals_by_level, inclusion) -> list
 
 def _partial_candidate(c, model) -> dict[str, Any]:
     """A partial round's candidate: as on full data, plus the free delta's likelihood gain that
-    shortlisted it (a correction that could not be scored has no BIC gain)."""
+    shortlisted it (a correction that could not be scored has no BIC gain), and the trajectories
+    whose filter it holds where the uncorrected model's diverged (gains count only the others)."""
     return {
         **_candidate(c, model),
         "bic_gain": round(c.bic_gain, 1) if np.isfinite(c.bic_gain) else None,
         "free_delta_log_likelihood_gain": round(c.score.log_likelihood_gain, 1),
+        "trajectories_held_where_the_model_diverged": c.rescued,
     }
 
 
@@ -122,6 +124,7 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
         "flagged": r.flagged,
         "verdict": r.verdict,
         "identifiable": r.identifiable,
+        "unexplained_after_correction": r.unexplained,
         "separated_by": r.separated_by,
         "misfit_after_best": round(r.dispersion, 3),
         "named": None,
@@ -144,7 +147,7 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
         )
         correction["channels_after"] = {t.channel: round(t.chi2_per_dof, 3) for t in r.chosen.tests_after}
         found["correction"] = correction
-        if r.identifiable:
+        if r.named is not None:
             found["named"] = correction
     return found
 

@@ -38,6 +38,7 @@ __all__ = [
     "HypothesisScore",
     "channel_noise",
     "hypothesis_scales",
+    "likelihood_gains",
     "score_hypotheses",
     "refine_coefficients",
     "smooth_hypothesis",
@@ -180,12 +181,34 @@ def hypothesis_scales(
 
 @dataclass(frozen=True)
 class HypothesisScore:
-    """A hypothesis' log-likelihood gain over the model without it, at its best random-walk step."""
+    """A hypothesis' log-likelihood gain over the model without it, at its best random-walk step;
+    ``rescued``: the trajectories its filter holds where the model's own diverged
+    (:func:`likelihood_gains`)."""
 
     hypothesis: Hypothesis
     scale: float
     walk: float
     log_likelihood_gain: float
+    rescued: int = 0
+
+    @property
+    def rank_key(self) -> tuple[int, float]:
+        return self.rescued, self.log_likelihood_gain
+
+
+def likelihood_gains(rows: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Log-likelihood gains (R,) of models with per-trajectory log-likelihoods ``rows`` (R, n) over a
+    base model's (n,), and how many trajectories each holds where the base's filter diverged (R,).
+
+    A gain is counted on the trajectories where the base's filter holds (a model that loses one of
+    them gains minus infinity): where the base's diverged, a difference of log-likelihoods means
+    nothing, and a model that holds there explains what the base cannot, which the count records.
+    Rank by (count, gain)."""
+    rows = np.where(np.isfinite(rows), rows, -np.inf)
+    held = np.isfinite(base)
+    with np.errstate(invalid="ignore"):
+        gains = (rows[:, held] - base[held]).sum(-1)
+    return gains, np.isfinite(rows[:, ~held]).sum(-1)
 
 
 def _rows(obs: Observations, hypotheses: Sequence[Hypothesis], walks: Sequence[float], scales: np.ndarray, null: bool):
@@ -221,22 +244,27 @@ def score_hypotheses(
     obs: Observations,
     window: int,
     states: np.ndarray,
-    walks: Sequence[float] = (0.3, 3.0),
+    walks: Sequence[float] = (0.0, 0.3, 3.0),
 ) -> tuple[list[HypothesisScore], np.ndarray]:
     """Every hypothesis' log-likelihood gain (best over the random-walk steps ``walks``, in noise
-    stds per window), best first, and the scales (H,); ``states`` (n, K, 8): the model's estimate."""
+    stds per window), best first, and the scales (H,); ``states`` (n, K, 8): the model's estimate.
+
+    A walk of 0 holds delta constant, estimated from the data like a state: the simplest closed
+    form.  A random walk can follow any delta(t), so every correction that moves the measured
+    channels the same way (less alumina in the bath, say) scores alike with one; a constant delta
+    tells them apart by how the correction acts over time (a feeder's gain acts per dose, a loss
+    all the time), and where the hypothesis is right it scores best of all."""
     scales = hypothesis_scales(model, hypotheses, obs, window, states)
     n = obs.y.shape[0]
     pairs, result = _filter(model, hypotheses, scales, obs, window, walks, backward=False)
-    totals = result.log_likelihood.reshape(len(pairs), n).sum(-1)
-    totals = np.where(np.isnan(totals), -np.inf, totals)  # a row whose filter diverged explains nothing
-    base = totals[0]
-    best: dict[int, tuple[float, float]] = {}
-    for (j, walk), total in zip(pairs[1:], totals[1:], strict=True):
-        if j not in best or total > best[j][0]:
-            best[j] = (float(total), walk)
-    scores = [HypothesisScore(hypotheses[j], float(scales[j]), walk, total - base) for j, (total, walk) in best.items()]
-    return sorted(scores, key=lambda s: -s.log_likelihood_gain), scales
+    per_trajectory = result.log_likelihood.reshape(len(pairs), n)
+    gains, rescued = likelihood_gains(per_trajectory[1:], per_trajectory[0])
+    best: dict[int, HypothesisScore] = {}
+    for (j, walk), gain, held in zip(pairs[1:], gains, rescued, strict=True):
+        score = HypothesisScore(hypotheses[j], float(scales[j]), walk, float(gain), int(held))
+        if j not in best or score.rank_key > best[j].rank_key:
+            best[j] = score
+    return sorted(best.values(), key=lambda s: tuple(-k for k in s.rank_key)), scales
 
 
 def smooth_hypothesis(model: CellModel, score: HypothesisScore, obs: Observations, window: int) -> Smoothed:

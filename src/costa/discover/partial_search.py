@@ -40,7 +40,14 @@ from .estimator import ChannelTest, Smoothed, innovation_tests
 from .hypotheses import Hypothesis, candidate_hypotheses
 from .library import FLOW_INPUTS, Feature
 from .observed import estimate_states
-from .partial import HypothesisScore, Observations, refine_coefficients, score_hypotheses, smooth_hypothesis
+from .partial import (
+    HypothesisScore,
+    Observations,
+    likelihood_gains,
+    refine_coefficients,
+    score_hypotheses,
+    smooth_hypothesis,
+)
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
 from .search import KEEP_LEVEL, DiscoverySettings, FittedTerms, independent_columns, naming_order, weakest_term
 
@@ -67,7 +74,12 @@ class PartialCandidate(FittedTerms):
     corrected: CellModel | None = None
     tests_after: list[ChannelTest] = field(default_factory=list)
     bic_gain: float = -np.inf
+    rescued: int = 0  # trajectories whose filter the correction holds where the uncorrected model's diverged
     explained: float = 0.0
+
+    @property
+    def rank_key(self) -> tuple[int, float]:
+        return self.rescued, self.bic_gain
 
     @property
     def hypothesis(self) -> Hypothesis:
@@ -100,8 +112,16 @@ class PartialRound:
         return [t.channel for t in self.tests if t.flagged]
 
     @property
+    def unexplained(self) -> list[str]:
+        """The measured channels that still disagree beyond noise after the chosen correction."""
+        return [t.channel for t in self.chosen.tests_after if t.flagged] if self.chosen is not None else []
+
+    @property
     def named(self) -> Hypothesis | None:
-        return self.chosen.hypothesis if self.chosen is not None and self.identifiable else None
+        """The chosen explanation, where the measurements tell it from the others and it explains them."""
+        if self.chosen is None or not self.identifiable or self.unexplained:
+            return None
+        return self.chosen.hypothesis
 
     @property
     def corrected(self) -> CellModel | None:
@@ -238,7 +258,7 @@ def _fit(
     seed,
     rich: bool,
     tests: list[ChannelTest],
-    base_likelihood: float,
+    base_likelihood: np.ndarray,
 ) -> PartialCandidate:
     """Smooth one hypothesis on every trajectory, fit its closed form, refine its coefficients on the
     measured channels, score the corrected model.  Every candidate of a round resamples with the
@@ -253,12 +273,12 @@ def _fit(
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
     tests_after, after = _tests(corrected, obs, settings, backward=False)
-    likelihood = float(after.log_likelihood.sum())
+    (gain,), (rescued,) = likelihood_gains(after.log_likelihood[None], base_likelihood)
     samples_measured = int(np.isfinite(obs.y).sum())
     flagged = [t.channel for t in tests if t.flagged]
-    candidate.corrected, candidate.tests_after = corrected, tests_after
-    if np.isfinite(likelihood):
-        candidate.bic_gain = 2 * (likelihood - base_likelihood) - len(features) * np.log(samples_measured)
+    candidate.corrected, candidate.tests_after, candidate.rescued = corrected, tests_after, int(rescued)
+    if np.isfinite(gain):
+        candidate.bic_gain = 2 * gain - len(features) * np.log(samples_measured)
     candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
     log.info(
         "%s: %s, BIC gain %.1f, in %.1f s",
@@ -287,17 +307,22 @@ def discover_round(
     log.info(
         "screened %d hypotheses on %d trajectories in %.1f s", len(screened), len(few.y), time.perf_counter() - started
     )
-    cut = screened[min(settings.partial_candidates, len(screened)) - 1].log_likelihood_gain if screened else np.inf
+    cut = screened[min(settings.partial_candidates, len(screened)) - 1].rank_key if screened else (np.inf,)
     seed = rng.integers(2**63)
-    base_likelihood = float(base.log_likelihood.sum())
     ranking = [
-        _fit(s, model, obs, settings, seed, rich, tests, base_likelihood)
+        _fit(s, model, obs, settings, seed, rich, tests, base.log_likelihood)
         for s in screened
-        if s.log_likelihood_gain >= cut and s.log_likelihood_gain > 0
+        if s.rank_key >= cut and (s.log_likelihood_gain > 0 or s.rescued > 0)
     ]
-    ranking.sort(key=lambda c: -c.bic_gain)
+    ranking.sort(key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)
-    good = [c for c in ranking if c.features and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion]
+    good = [
+        c
+        for c in ranking
+        if c.features
+        and c.rescued == ranking[0].rescued
+        and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion
+    ]
     if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
         best = (
             f"the best, {ranking[0].hypothesis.key}, removes {ranking[0].explained:.0%} of the excess"
@@ -316,10 +341,16 @@ def discover_round(
     if different:
         histories = [c.smoothed.mean[..., :8] for c in [chosen, *different]]
         separated = separating_channel(histories, obs.u, model, obs.channels)
+    unexplained = [t.channel for t in chosen.tests_after if t.flagged]
     if different:
         keys = ", ".join(c.hypothesis.key for c in [chosen, *different])
         what = f"not identifiable with these measurements: {keys} explain the measured channels equally well"
         what += f"; measuring {separated} would separate them" if separated else ""
+    elif unexplained:
+        what = (
+            f"not named: the best correction, {chosen.hypothesis.key}, leaves {unexplained} disagreeing beyond "
+            "noise, so what is missing may be an explanation that did not fit here or more than one effect"
+        )
     else:
         what = chosen.hypothesis.describe(model)
     verdict = f"{what}; the correction removes {chosen.explained:.0%} of the flagged channels' excess"
@@ -328,8 +359,9 @@ def discover_round(
 
 def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySettings) -> list[PartialRound]:
     """Rounds until no channel disagrees, nothing explains it, a correction explains too little,
-    the measurements cannot tell the explanations apart (a further round would explain what is
-    left of a guess), or ``max_rounds``."""
+    the measurements cannot tell the explanations apart, the best correction leaves a channel
+    disagreeing (in both cases a further round would explain what is left of a guess), or
+    ``max_rounds``."""
     rng = np.random.default_rng(settings.seed)
     rounds: list[PartialRound] = []
     current, rich = model, False
@@ -337,7 +369,7 @@ def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySet
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
         found = discover_round(current, obs, settings, rng, rich, named)
         rounds.append(found)
-        if found.chosen is None or not found.identifiable:
+        if found.named is None:
             break
         current = found.corrected
         rich = any(t.flagged for t in found.chosen.tests_after)

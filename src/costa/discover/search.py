@@ -81,7 +81,8 @@ class DiscoverySettings:
         40_000  # partial measurements: every hypothesis is scored first on trajectories of this many steps in all
     )
     partial_candidates: int = 4  # ... the best so many get a closed form, fitted and scored on all trajectories
-    walks: tuple[float, ...] = (0.3, 3.0)  # ... random-walk steps of a hypothesis' delta, in noise stds per window
+    # ... random-walk steps of a hypothesis' delta, in noise stds per window (0: a constant delta)
+    walks: tuple[float, ...] = (0.0, 0.3, 3.0)
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
 
 
