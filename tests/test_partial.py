@@ -193,18 +193,20 @@ def test_a_pot_lines_first_state_is_searched_where_one_voltage_cannot_place_it(d
 
 
 def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_lost():
-    """Where the uncorrected model's filter diverges, no difference of log-likelihoods is evidence:
-    gains are summed over the trajectories it holds, a model that loses one of those gains minus
+    """Where the uncorrected model's filter diverges, no difference from it is evidence: there the
+    models are compared with the best of them, a model that loses a trajectory gains minus
     infinity, and the trajectories a model holds where the base diverged are counted apart."""
     from costa.discover.partial import likelihood_gains
 
     base = np.array([-10.0, -20.0, -np.inf])
-    rows = np.array([[-8.0, -19.0, -5.0], [-9.0, -15.0, -np.inf], [-1.0, np.nan, -1.0]])
+    rows = np.array([[-8.0, -19.0, -5.0], [-9.0, -15.0, -np.inf], [-1.0, np.nan, -1.0], [-9.0, -19.0, -7.0]])
     gains, rescued = likelihood_gains(rows, base)
-    np.testing.assert_array_equal(gains, [3.0, 6.0, -np.inf])
-    np.testing.assert_array_equal(rescued, [1, 0, 1])
+    np.testing.assert_array_equal(gains, [3.0 - 4.0, -np.inf, -np.inf, 2.0 - 6.0])
+    np.testing.assert_array_equal(rescued, [1, 0, 1, 1])
     held_everywhere, _ = likelihood_gains(rows[:2, :2], base[:2])
     np.testing.assert_array_equal(held_everywhere, rows[:2, :2].sum(1) - base[:2].sum())
+    lost_by_all, _ = likelihood_gains(np.full((2, 1), -np.inf), np.array([-np.inf]))
+    np.testing.assert_array_equal(lost_by_all, [0.0, 0.0])
 
 
 def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves():

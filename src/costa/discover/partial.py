@@ -200,14 +200,17 @@ def likelihood_gains(rows: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np
     """Log-likelihood gains (R,) of models with per-trajectory log-likelihoods ``rows`` (R, n) over a
     base model's (n,), and how many trajectories each holds where the base's filter diverged (R,).
 
-    A gain is counted on the trajectories where the base's filter holds (a model that loses one of
-    them gains minus infinity): where the base's diverged, a difference of log-likelihoods means
-    nothing, and a model that holds there explains what the base cannot, which the count records.
-    Rank by (count, gain)."""
+    Where the base's filter diverged a difference from it means nothing: there each model is
+    compared with the best of ``rows`` instead (so the gain still ranks the models), and the count
+    records that it explains what the base cannot.  A model that loses a trajectory the reference
+    holds gains minus infinity; a trajectory every model loses is left out.  Rank by (count, gain);
+    where the base holds everywhere, the gain is the plain difference of total log-likelihoods."""
     rows = np.where(np.isfinite(rows), rows, -np.inf)
     held = np.isfinite(base)
+    reference = np.where(held, base, rows.max(0, initial=-np.inf))
+    informative = np.isfinite(reference)
     with np.errstate(invalid="ignore"):
-        gains = (rows[:, held] - base[held]).sum(-1)
+        gains = (rows[:, informative] - reference[informative]).sum(-1)
     return gains, np.isfinite(rows[:, ~held]).sum(-1)
 
 

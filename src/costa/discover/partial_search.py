@@ -73,6 +73,7 @@ class PartialCandidate(FittedTerms):
     inclusion: dict[str, float]
     corrected: CellModel | None = None
     tests_after: list[ChannelTest] = field(default_factory=list)
+    log_likelihood: np.ndarray | None = None  # the corrected model's, per trajectory (n,)
     bic_gain: float = -np.inf
     rescued: int = 0  # trajectories whose filter the correction holds where the uncorrected model's diverged
     explained: float = 0.0
@@ -258,11 +259,11 @@ def _fit(
     seed,
     rich: bool,
     tests: list[ChannelTest],
-    base_likelihood: np.ndarray,
 ) -> PartialCandidate:
     """Smooth one hypothesis on every trajectory, fit its closed form, refine its coefficients on the
-    measured channels, score the corrected model.  Every candidate of a round resamples with the
-    same ``seed``."""
+    measured channels, test the corrected model's innovations and keep its likelihood (scored
+    against the other candidates by :func:`_score`).  Every candidate of a round resamples with
+    the same ``seed``."""
     started = time.perf_counter()
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
     rng = np.random.default_rng(seed)
@@ -273,18 +274,26 @@ def _fit(
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
     tests_after, after = _tests(corrected, obs, settings, backward=False)
-    (gain,), (rescued,) = likelihood_gains(after.log_likelihood[None], base_likelihood)
-    samples_measured = int(np.isfinite(obs.y).sum())
     flagged = [t.channel for t in tests if t.flagged]
-    candidate.corrected, candidate.tests_after, candidate.rescued = corrected, tests_after, int(rescued)
-    if np.isfinite(gain):
-        candidate.bic_gain = 2 * gain - len(features) * np.log(samples_measured)
+    candidate.corrected, candidate.tests_after, candidate.log_likelihood = corrected, tests_after, after.log_likelihood
     candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
     log.info(
-        "%s: %s, BIC gain %.1f, in %.1f s",
-        score.hypothesis.key, candidate.formula, candidate.bic_gain, time.perf_counter() - started,
+        "%s: %s, log-likelihood %.1f, in %.1f s",
+        score.hypothesis.key, candidate.formula, np.sum(after.log_likelihood), time.perf_counter() - started,
     )  # fmt: skip
     return candidate
+
+
+def _score(candidates: Sequence[PartialCandidate], base_likelihood: np.ndarray, samples: int) -> None:
+    """Each fitted candidate's BIC gain over the uncorrected model on ``samples`` measured values, and
+    the trajectories it holds where the uncorrected filter diverged (:func:`.partial.likelihood_gains`)."""
+    fitted = [c for c in candidates if c.log_likelihood is not None]
+    if not fitted:
+        return
+    gains, rescued = likelihood_gains(np.stack([c.log_likelihood for c in fitted]), base_likelihood)
+    for c, gain, held in zip(fitted, gains, rescued, strict=True):
+        c.rescued = int(held)
+        c.bic_gain = 2 * gain - len(c.features) * np.log(samples) if np.isfinite(gain) else -np.inf
 
 
 def discover_round(
@@ -310,10 +319,11 @@ def discover_round(
     cut = screened[min(settings.partial_candidates, len(screened)) - 1].rank_key if screened else (np.inf,)
     seed = rng.integers(2**63)
     ranking = [
-        _fit(s, model, obs, settings, seed, rich, tests, base.log_likelihood)
+        _fit(s, model, obs, settings, seed, rich, tests)
         for s in screened
         if s.rank_key >= cut and (s.log_likelihood_gain > 0 or s.rescued > 0)
     ]
+    _score(ranking, base.log_likelihood, int(np.isfinite(obs.y).sum()))
     ranking.sort(key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)
     good = [
