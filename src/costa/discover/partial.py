@@ -183,13 +183,16 @@ def hypothesis_scales(
 class HypothesisScore:
     """A hypothesis' log-likelihood gain over the model without it, at its best random-walk step;
     ``rescued``: the trajectories its filter holds where the model's own diverged
-    (:func:`likelihood_gains`)."""
+    (:func:`likelihood_gains`); ``smoothing_walk``: the step its delta(t) is smoothed with for the
+    closed form, its best step that lets delta move (a constant delta shows the regression nothing
+    but a constant), or its best step where none of those holds."""
 
     hypothesis: Hypothesis
     scale: float
     walk: float
     log_likelihood_gain: float
     rescued: int = 0
+    smoothing_walk: float | None = None
 
     @property
     def rank_key(self) -> tuple[int, float]:
@@ -263,16 +266,24 @@ def score_hypotheses(
     per_trajectory = result.log_likelihood.reshape(len(pairs), n)
     gains, rescued = likelihood_gains(per_trajectory[1:], per_trajectory[0])
     best: dict[int, HypothesisScore] = {}
+    moving: dict[int, HypothesisScore] = {}  # the best step > 0 that holds
     for (j, walk), gain, held in zip(pairs[1:], gains, rescued, strict=True):
         score = HypothesisScore(hypotheses[j], float(scales[j]), walk, float(gain), int(held))
         if j not in best or score.rank_key > best[j].rank_key:
             best[j] = score
-    return sorted(best.values(), key=lambda s: tuple(-k for k in s.rank_key)), scales
+        if walk > 0 and np.isfinite(gain) and (j not in moving or score.rank_key > moving[j].rank_key):
+            moving[j] = score
+    scores = [
+        dataclasses.replace(score, smoothing_walk=moving[j].walk if j in moving else score.walk)
+        for j, score in best.items()
+    ]
+    return sorted(scores, key=lambda s: tuple(-k for k in s.rank_key)), scales
 
 
 def smooth_hypothesis(model: CellModel, score: HypothesisScore, obs: Observations, window: int) -> Smoothed:
-    """Smoothed states and delta (in the hypothesis' own unit) of one hypothesis at its walk step."""
-    _, result = _filter(model, [score.hypothesis], np.array([score.scale]), obs, window, [score.walk], backward=True)
+    """Smoothed states and delta (in the hypothesis' own unit) of one hypothesis at its smoothing step."""
+    walk = score.walk if score.smoothing_walk is None else score.smoothing_walk
+    _, result = _filter(model, [score.hypothesis], np.array([score.scale]), obs, window, [walk], backward=True)
     result.mean[..., 8] *= score.scale
     result.std[..., 8] *= score.scale
     return result
