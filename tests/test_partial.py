@@ -221,3 +221,32 @@ def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves(
     assert _dispersion(best(("U_cell", 1000, 400.0), ("x6", 10, 1.0))) == pytest.approx(400_010 / 1010)
     assert _dispersion(best(("U_cell", 1000, 0.9))) == 1.0
     assert _dispersion([]) == 1.0
+
+
+def test_refined_coefficients_recover_a_hidden_flow_whose_terms_span_decades(default_config):
+    """The settling alumina u1 (0.3 - 0.015 superheat) [kg/s], refined on three full-length partial
+    records from the regression's poor start with eight terms it lacks, whose prior widths span ten
+    decades (as in the full-size case): the posterior is combined in units of the prior widths (in raw units
+    rounding alone made it look improper, and the refinement gave up), recovers the truth and
+    leaves the absent terms' intervals around zero."""
+    from costa.discover.partial import refine_coefficients
+
+    config = _reduced(default_config, 5000)  # shorter records never made the old combination fail
+    config["discovery"]["trajectories"] = 3
+    train, _ = case_tables(config, "alumina_dissolution", "partial")
+    obs = observations(train, {}, "partial")
+    model = starting_model(config, "full")
+    (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alumina_mass"]
+    library = {f.name: f for f in term.features(False)}
+    names = ["1", "(c2 - 0.03)", "u1", "superheat", "(c2 - 0.03)^2", "u1*(c2 - 0.03)", "u1*superheat"]
+    names += ["(u2 - 140000)*superheat", "u3", "u4"]
+    start = np.array([5e-3, -0.19, -0.19, -7.6e-4, 27.5, -3.6, 9.9e-3, 0.0, 0.0, 0.0])
+    width = np.array([3.4e-3, 0.096, 0.093, 4e-4, 18.2, 2.9, 5.1e-3, 5.6e-9, 5.2e-3, 4.8e-3])
+    refined = refine_coefficients(model, term, [library[n] for n in names], start, width, obs)
+    assert refined is not None
+    theta, covariance = refined
+    truth = np.zeros(len(names))
+    truth[[names.index("u1"), names.index("u1*superheat")]] = -0.3, 0.015
+    std = np.sqrt(np.diag(covariance))
+    assert np.all(np.abs(theta - truth) < 4 * std)
+    assert std[names.index("u1")] < 0.05  # the measurements pin the settling fraction down

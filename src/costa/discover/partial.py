@@ -324,7 +324,6 @@ def refine_coefficients(
 
     n = obs.y.shape[0]
     x0, cov0 = obs.prior()
-    prior_precision = np.diag(1.0 / width**2)
     space = StateSpaceModel(
         transition, measured, np.append(PROCESS_STD, np.zeros(p)), obs.noise, np.append(NOMINAL_STATE, width)
     )
@@ -334,15 +333,17 @@ def refine_coefficients(
         cov = np.zeros((8 + p, 8 + p))
         cov[:8, :8], cov[8:, 8:] = cov0, np.diag(width**2)
         result = smooth(space, obs.y, obs.u, mean0, cov, backward=False)
-        means, covs = result.mean[:, -1, 8:], result.final_cov[:, 8:, 8:]
+        # in units of the prior widths, where the prior's precision is the identity (the
+        # coefficients' own scales span many decades: a check in raw units tests rounding)
+        means, covs = result.mean[:, -1, 8:] / width, result.final_cov[:, 8:, 8:] / np.outer(width, width)
         if not (np.isfinite(means).all() and np.isfinite(covs).all()):
             return None
         try:
             precisions = np.linalg.inv(covs)
         except np.linalg.LinAlgError:
             return None
-        total = precisions.sum(0) - (n - 1) * prior_precision
+        total = precisions.sum(0) - (n - 1) * np.eye(p)
         if np.any(np.linalg.eigvalsh(0.5 * (total + total.T)) <= 0):
             return None
-        theta = np.linalg.solve(total, np.einsum("nij,nj->i", precisions, means) - (n - 1) * prior_precision @ theta)
-    return theta, np.linalg.inv(total)
+        theta = width * np.linalg.solve(total, np.einsum("nij,nj->i", precisions, means) - (n - 1) * theta / width)
+    return theta, np.linalg.inv(total) / np.outer(1 / width, 1 / width)
