@@ -68,7 +68,9 @@ def main() -> None:
         normalisation = training_data(x, u, dt, trained.model_type.target, pbm, trained.model_type.savgol).normalisation
         for variant in args.variants:
             options = VARIANTS[variant]
-            model_type = dataclasses.replace(trained.model_type, **{"source_bound": None, "rate_bound": None, **options})
+            model_type = dataclasses.replace(
+                trained.model_type, **{"source_bound": None, "rate_bound": None, **options}
+            )
             model = NetworkModel(model_type, trained.ensemble, normalisation, pbm, {})
             forecasts = rollout_networks(model, x_test, u_test, dt, copied)
             coded = metrics_table(variant, forecasts, x_test, state_scale(x), settings).query("definition == 'coded'")

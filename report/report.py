@@ -331,8 +331,12 @@ def beside(frame: pd.DataFrame, models: list[str]) -> pd.DataFrame:
 
 
 if "discovered" in set(coded.model_type):
-    display(Markdown("### The discovered model on the paper's test set\n\nBlow-ups / rollouts; median AN-RFMSE [95 %]:"))
-    shown = [m for m in ["pbm", "discovered", "costa_sparse", "costa_dense", "ddm_sparse"] if m in set(coded.model_type)]
+    display(
+        Markdown("### The discovered model on the paper's test set\n\nBlow-ups / rollouts; median AN-RFMSE [95 %]:")
+    )
+    shown = [
+        m for m in ["pbm", "discovered", "costa_sparse", "costa_dense", "ddm_sparse"] if m in set(coded.model_type)
+    ]
     show(beside(coded, shown))
     found = json.loads(Path(inputs["beyond_findings"][0]).read_text())
     named = [r["named"] for r in found["rounds"] if r["named"]]
