@@ -250,3 +250,22 @@ def test_refined_coefficients_recover_a_hidden_flow_whose_terms_span_decades(def
     std = np.sqrt(np.diag(covariance))
     assert np.all(np.abs(theta - truth) < 4 * std)
     assert std[names.index("u1")] < 0.05  # the measurements pin the settling fraction down
+
+
+def test_the_screen_sends_the_best_few_and_their_exact_ties_to_a_fit():
+    """The best ``partial_candidates`` go on, with those tied exactly with the last; a hypothesis
+    with nothing to show (no gain, no cell held where the uncorrected filter was lost) never does,
+    and a gain of minus infinity ties with nothing."""
+    from costa.discover.partial import HypothesisScore
+    from costa.discover.partial_search import best_screened
+
+    def score(name, gain, rescued=0):
+        return HypothesisScore(SimpleNamespace(key=name), 1.0, 0.0, gain, rescued)
+
+    settings = DiscoverySettings(partial_candidates=2)
+    ranked = [score("a", 5.0), score("b", 3.0), score("c", 3.0), score("d", 1.0)]
+    assert [s.hypothesis.key for s in best_screened(ranked, settings)] == ["a", "b", "c"]
+    weak = [score("a", 5.0), score("b", -1.0), score("c", -2.0)]
+    assert [s.hypothesis.key for s in best_screened(weak, settings)] == ["a"]
+    lost = [score("a", 2.0, 3), score("b", -np.inf, 2), *(score(k, -np.inf, 2) for k in "cdefgh")]
+    assert [s.hypothesis.key for s in best_screened(lost, settings)] == ["a", "b"]

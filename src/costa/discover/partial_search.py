@@ -244,6 +244,19 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     return features, coefficients, samples
 
 
+def best_screened(screened: Sequence[HypothesisScore], settings: DiscoverySettings) -> list[HypothesisScore]:
+    """The screened hypotheses (best first) that go on to a fit: the best ``partial_candidates``
+    and those tied exactly with the last of them, each with a gain or a trajectory held where the
+    uncorrected filter diverged.  A gain of minus infinity (a trajectory lost that the uncorrected
+    filter holds) is no tie: on plant data every hypothesis holding as many lost cells would
+    otherwise go on (conductivity_alf3: 14 fits in place of 4)."""
+    top = list(screened[: settings.partial_candidates])
+    ties = [
+        s for s in screened[len(top) :] if top and s.rank_key == top[-1].rank_key and np.isfinite(s.log_likelihood_gain)
+    ]
+    return [s for s in top + ties if s.log_likelihood_gain > 0 or s.rescued > 0]
+
+
 def _tests(
     model: CellModel, obs: Observations, settings: DiscoverySettings, backward: bool = True
 ) -> tuple[list[ChannelTest], Smoothed]:
@@ -316,13 +329,8 @@ def discover_round(
     log.info(
         "screened %d hypotheses on %d trajectories in %.1f s", len(screened), len(few.y), time.perf_counter() - started
     )
-    cut = screened[min(settings.partial_candidates, len(screened)) - 1].rank_key if screened else (np.inf,)
     seed = rng.integers(2**63)
-    ranking = [
-        _fit(s, model, obs, settings, seed, rich, tests)
-        for s in screened
-        if s.rank_key >= cut and (s.log_likelihood_gain > 0 or s.rescued > 0)
-    ]
+    ranking = [_fit(s, model, obs, settings, seed, rich, tests) for s in best_screened(screened, settings)]
     _score(ranking, base.log_likelihood, int(np.isfinite(obs.y).sum()))
     ranking.sort(key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)
