@@ -346,4 +346,4 @@ def refine_coefficients(
         if np.any(np.linalg.eigvalsh(0.5 * (total + total.T)) <= 0):
             return None
         theta = width * np.linalg.solve(total, np.einsum("nij,nj->i", precisions, means) - (n - 1) * theta / width)
-    return theta, np.linalg.inv(total) / np.outer(1 / width, 1 / width)
+    return theta, np.linalg.inv(total) * np.outer(width, width)
