@@ -11,7 +11,7 @@ hand samples hours apart), one voltage sample cannot place the alumina, AlF3 and
 masses: the voltage is not monotonic in the alumina content, and a filter linearised at
 the nominal point jumps to negative masses within a few steps.  There the first state
 is searched on a grid of compositions and bath masses (:data:`START_GRID`), each filtered
-over the first hour, and the likeliest start taken per trajectory (:func:`searched_start`).
+over the first 8 hours, and the likeliest start taken per trajectory (:func:`searched_start`).
 """
 
 from __future__ import annotations
@@ -35,9 +35,11 @@ PRIOR_STD = np.array([1000.0, 150.0, 400.0, 2500.0, 150.0, 10.0, 40.0, 40.0])
 PROCESS_STD = 1e-7 * NOMINAL_STATE
 #: first states tried where the composition is not sampled at the first step: Al2O3 and AlF3 mass
 #: fractions of the bath and the bath mass [kg], spanning the simulated cells' range (config/config.yaml)
-START_GRID = {"c2": (0.022, 0.03, 0.04, 0.05), "c3": (0.095, 0.11, 0.125), "bath": (12500.0, 15000.0)}
-#: the span of data [s] over which each start of the grid is filtered and scored
-START_SEARCH_S = 3600.0
+START_GRID = {"c2": (0.022, 0.03, 0.04, 0.05), "c3": (0.095, 0.11, 0.125), "bath": (12500.0, 14000.0, 15500.0)}
+#: the span of data [s] over which each start of the grid is filtered and scored: a pot line's
+#: 8-hourly hand samples fall in it once, and they are what rejects a wrong composition that the
+#: voltage alone fits for an hour (a filter from there collapses onto it and is lost hours later)
+START_SEARCH_S = 8 * 3600.0
 
 
 def cell_state_space(
