@@ -131,6 +131,15 @@ def training_config(model_type):
 DISCOVERY_CODE = SIMULATION_CODE + package_files(
     "discover", "forecast.py", "metrics.py"
 )
+# what a shipped case's data come from: its hidden effect, the simulation and the sensors
+# (so that a change of the discovery's own code does not simulate the data again)
+CASE_DATA_CODE = SIMULATION_CODE + package_files(
+    "discover/cases.py",
+    "discover/unshipped.py",
+    "discover/pipeline.py",
+    "observe.py",
+    "sensors.py",
+)
 SHIPPED_CASES = list(config["discovery"]["cases"])
 USER_CASE = (config["discovery"]["user_data"] or {}).get("name", "")
 DISCOVERY_CASES = SHIPPED_CASES + ([USER_CASE] if USER_CASE else [])

@@ -1,7 +1,7 @@
 rule discovery_case_data:
     """Simulate a shipped case with its hidden effect and add measurement noise."""
     input:
-        code=DISCOVERY_CODE,
+        code=CASE_DATA_CODE,
     output:
         train=out("discovery/{case}/data/train.parquet"),
         held_out=out("discovery/{case}/data/held_out.parquet"),

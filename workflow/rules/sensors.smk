@@ -2,7 +2,7 @@ rule discovery_sensor_data:
     """Simulate a shipped case and measure it with one sensor set (discovery.sensor_sets):
     each channel at its own interval and noise, the rest unmeasured."""
     input:
-        code=DISCOVERY_CODE + package_files("sensors.py"),
+        code=CASE_DATA_CODE,
     output:
         train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
         held_out=out("discovery/{case}/sensors/{sensors}/data/held_out.parquet"),
