@@ -207,6 +207,77 @@ def test_the_start_search_spans_the_first_hand_samples_so_a_right_models_filter_
     assert np.all(result.log_likelihood > 0), result.log_likelihood
 
 
+def test_each_model_is_scored_from_the_start_it_searches_itself(default_config):
+    """The liquidus case under plant sensors: the start searched under the ablated PBM (liquidus
+    fixed at 968 degC) places cell 1's bath where that model fits the first hours, and the true
+    model's filter from there misses the hand samples by tens of sigma; searched under the true
+    model, its filter holds on both cells as it does on data it made."""
+    train, _ = case_tables(copy.deepcopy(default_config), "paper_liquidus", "plant")
+    obs = observations(train, {"x6": 1.5, "c3": 0.002, "x5": 15.0}, "plant").subset([0, 1])
+    true, ablated = CASES["paper_liquidus"].models(starting_model(default_config, "full"))
+    scored = {}
+    for name, placed in (("ablated", obs.with_start(ablated)), ("own", obs.with_start(ablated).searched_again(true))):
+        result = estimate_states(
+            true, placed.y, placed.u, placed.channels, placed.noise, placed.dt, False, placed.start
+        )
+        scored[name] = result.log_likelihood
+    assert scored["own"].min() > 6e4 and scored["ablated"].min() < -1e6, scored  # cell 1: -3.7e6
+
+
+def test_the_gaps_rollouts_start_from_the_first_samples_only(default_config):
+    """A rollout scored on held-out measurements starts from what the first ``start_steps`` samples
+    say: the first state is searched on them, not on the hours after, which the rollout is scored on
+    (hand samples 8 h on would otherwise place the start of a forecast that is scored there)."""
+    from costa.discover.gap import measured_gap
+    from costa.metrics import EvaluationSettings
+
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=12, trajectories=2, held_out_trajectories=1)
+    train, _ = case_tables(config, "no_effect", "plant")
+    obs = observations(train, {"x6": 1.5, "c3": 0.002, "x5": 15.0}, "plant")
+    model = starting_model(config, "full")
+    start_steps, steps = 360, obs.y.shape[1]
+    settings = EvaluationSettings({"short": (0, start_steps), "long": (steps // 2, steps)}, {"short": start_steps})
+    later_unknown = replace(obs, y=np.where(np.arange(steps)[:, None] < start_steps, obs.y, np.nan))
+    scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0)
+    placed = [replace(obs, start=o.with_start(model).start) for o in (obs, later_unknown)]  # all 12 h, the 1st h
+    assert not np.array_equal(placed[0].start, placed[1].start)
+    gaps = [measured_gap({"m": model}, o, scale, settings, start_steps)[0] for o in placed]
+    assert gaps[0]["error"].tolist() == gaps[1]["error"].tolist()
+
+
+def test_where_the_start_needs_the_first_hand_samples_the_gaps_first_window_holds_them():
+    """A 48 h pot-line record is scored 0-8 h (where the start is placed), 8-24 h and 24-48 h: the
+    paper's fractions (0-58 min, 58 min-24 h, 24-48 h) would score the medium window on samples that
+    placed the start.  Records whose composition is sampled at the first step keep the paper's
+    windows; a record too short for any window after the start is refused with the reason."""
+    from costa.data import TrajectoryDataError
+    from costa.discover.partial_pipeline import _estimation_windows
+    from costa.discover.pipeline import PAPER_FRACTIONS
+    from costa.metrics import EvaluationSettings, windows_from_fractions
+
+    steps = 17280
+    paper = EvaluationSettings(windows_from_fractions(PAPER_FRACTIONS, steps), {})
+    y = np.full((2, steps, 3), np.nan)
+    y[..., 0] = 4.2  # the voltage every 10 s; AlF3 and Al2O3 by hand, the first 3 h in
+    y[:, 1080::2880, 1:] = 0.1
+    pot_line = Observations(y, np.zeros((2, steps, 5)), ("U_cell", "c2", "c3"), np.ones(3), 10.0)
+    evaluation, start_steps = _estimation_windows(paper, pot_line, "cell.csv")
+    assert start_steps == 2880
+    assert evaluation.windows == {"short": (0, 2880), "medium": (2880, 8640), "long": (8640, 17280)}
+    assert evaluation.horizons == {"short": 2880, "medium": 8640, "long": 17280}
+    y[:, 0, 1:] = 0.1
+    assert _estimation_windows(paper, replace(pot_line, y=y), "cell.csv") == (paper, 346)
+    short = EvaluationSettings(windows_from_fractions(PAPER_FRACTIONS, 3000), {})
+    y = y[:, :3000]
+    y[:, 0, 1:] = np.nan
+    with pytest.raises(
+        TrajectoryDataError,
+        match="cell.csv: trajectories of 3000 samples are too short for the gap's windows .* record longer cells",
+    ):
+        _estimation_windows(short, replace(pot_line, y=y, u=pot_line.u[:, :3000]), "cell.csv")
+
+
 def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_lost():
     """Where the uncorrected model's filter diverges, no difference from it is evidence: there the
     models are compared with the best of them, a model that loses a trajectory gains minus

@@ -95,9 +95,12 @@ def measured_channel_error(
 
 def _rollout_from_estimate(model: CellModel, obs: Observations, start_steps: int) -> np.ndarray:
     """Channels (n, K, C) of ``model`` rolled out from its smoothed estimate of the first state,
-    made from the first ``start_steps`` samples only."""
-    early = obs.y[:, :start_steps], obs.u[:, :start_steps]
-    first = estimate_states(model, *early, obs.channels, obs.noise, obs.dt, start=obs.start).mean[:, :1]
+    made from the first ``start_steps`` samples only (where the first state is searched, it is
+    searched on those samples too, under ``model``: nothing the rollout is scored on after them
+    places its start, and each model starts where it would place the cell itself)."""
+    early = Observations(obs.y[:, :start_steps], obs.u[:, :start_steps], obs.channels, obs.noise, obs.dt)
+    early = early.with_start(model)
+    first = estimate_states(model, early.y, early.u, obs.channels, obs.noise, obs.dt, start=early.start).mean[:, :1]
     start = np.concatenate([first, np.zeros((obs.y.shape[0], obs.y.shape[1] - 1, 8))], axis=1)
     with np.errstate(all="ignore"):
         return observe(model, rollout_physics(model, start, obs.u, obs.dt), obs.u, obs.channels)

@@ -26,7 +26,16 @@ from ..physics import CellModel
 from ..variables import STATES
 from .estimator import Smoothed, StateSpaceModel, smooth
 
-__all__ = ["NOMINAL_STATE", "PRIOR_STD", "START_GRID", "cell_state_space", "estimate_states", "prior", "searched_start"]
+__all__ = [
+    "NOMINAL_STATE",
+    "PRIOR_STD",
+    "START_GRID",
+    "cell_state_space",
+    "estimate_states",
+    "prior",
+    "searched_start",
+    "start_is_searched",
+]
 
 #: a nominal operating point [kg x5, degC x3] and how far a cell may be from it (1 std) before anything is measured
 NOMINAL_STATE = np.array([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0, 580.0])
@@ -82,6 +91,13 @@ def prior(y: np.ndarray, channels: Sequence[str], start: np.ndarray | None = Non
     return (mean if start is None else start), np.diag(PRIOR_STD**2)
 
 
+def start_is_searched(y: np.ndarray, channels: Sequence[str]) -> bool:
+    """Whether :func:`searched_start` searches the first states of y (n, K, C): not where both
+    fractions are sampled at the first step of every trajectory (:func:`prior` places the masses)."""
+    first = {name: y[:, 0, c] for c, name in enumerate(channels)}
+    return not all(name in first and np.isfinite(first[name]).all() for name in ("c2", "c3"))
+
+
 def searched_start(
     model: CellModel, y: np.ndarray, u: np.ndarray, channels: Sequence[str], noise_std: np.ndarray, dt: float
 ) -> np.ndarray | None:
@@ -89,9 +105,9 @@ def searched_start(
     :data:`START_SEARCH_S` of y (n, K, C); None where both fractions are sampled at the first step
     of every trajectory (:func:`prior` then places the masses).  A fraction sampled at the first
     step keeps its sample."""
-    first = {name: y[:, 0, c] for c, name in enumerate(channels)}
-    if all(name in first and np.isfinite(first[name]).all() for name in ("c2", "c3")):
+    if not start_is_searched(y, channels):
         return None
+    first = {name: y[:, 0, c] for c, name in enumerate(channels)}
     mean, cov = prior(y, channels)
     grid = np.array(np.meshgrid(*START_GRID.values(), indexing="ij")).reshape(3, -1).T
     missing = np.full(len(mean), np.nan)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -21,6 +21,7 @@ from ..data import TrajectoryDataError, measured_trajectories
 from ..metrics import EvaluationSettings
 from ..physics import CellModel
 from .gap import measured_gap, measured_noise_floor
+from .observed import START_SEARCH_S, start_is_searched
 from .partial import Observations, channel_noise
 from .partial_search import PartialRound, discover_partial
 from .search import DiscoverySettings
@@ -55,6 +56,31 @@ def observations(table: pd.DataFrame, declared_noise: Mapping[str, float], sourc
     return Observations(measured.values, measured.inputs, measured.channels, noise, measured.dt)
 
 
+def _estimation_windows(
+    evaluation: EvaluationSettings, held: Observations, source: str
+) -> tuple[EvaluationSettings, int]:
+    """The gap's windows and the samples a rollout's start is estimated from: the first window's.
+
+    Where the first state is searched (a pot line's record), the start needs the first hand
+    samples (:data:`.observed.START_SEARCH_S`): the first window is widened to hold them, and a
+    window that began inside it begins after it, so that no window but the first is scored on
+    samples that placed the start (plant: 0-8 h, 8-24 h, 24-48 h for 0-58 min, 58 min-24 h, 24-48 h)."""
+    start_steps = min(stop for _, stop in evaluation.windows.values())
+    if not start_is_searched(held.y, held.channels):
+        return evaluation, start_steps
+    needed = min(held.y.shape[1], max(start_steps, round(START_SEARCH_S / held.dt)))
+    windows = {
+        name: (low, max(high, needed)) if high == start_steps else (max(low, needed) if low else low, high)
+        for name, (low, high) in evaluation.windows.items()
+    }
+    if any(low >= high for low, high in windows.values()):
+        raise TrajectoryDataError(
+            f"{source}: trajectories of {held.y.shape[1]} samples are too short for the gap's windows {dict(evaluation.windows)} "
+            f"after the first {needed} samples, which place each held-out cell's first state; record longer cells"
+        )
+    return replace(evaluation, windows=windows, horizons={w: stop for w, (_, stop) in windows.items()}), needed
+
+
 def run_partial_discovery(
     train: pd.DataFrame,
     held_out: pd.DataFrame,
@@ -81,12 +107,12 @@ def run_partial_discovery(
             f"{source}: trajectories of {obs.y.shape[1]} samples are too short; discovery needs at least "
             f"{4 * settings.window + 1} (4 windows of discovery.window_steps = {settings.window})"
         )
+    evaluation, start_steps = _estimation_windows(evaluation, held, source)  # checked before the search runs
     started = time.perf_counter()
-    obs, held = obs.with_start(start), held.with_start(start)
+    obs = obs.with_start(start)
     rounds = discover_partial(start, obs, settings)
     seconds = time.perf_counter() - started
     corrected = next((r.corrected for r in reversed(rounds) if r.corrected is not None), start)
-    start_steps = min(stop for _, stop in evaluation.windows.values())
     scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)
     models = {"starting model": start} | ({"corrected model": corrected} if corrected is not start else {})
     gap, per_channel = measured_gap(models, held, scale, evaluation, start_steps)

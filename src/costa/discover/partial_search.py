@@ -281,12 +281,15 @@ def _fit(
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
     rng = np.random.default_rng(seed)
     *fit, inclusion = _closed_form(score.hypothesis, model, smoothed, obs, settings, rng, rich)
-    features, coefficients, samples = _refined(score.hypothesis, model, obs, fit, smoothed, rich, rng)
+    fitted = score.hypothesis.corrected(model, *fit[:2]) if fit[0] else model
+    features, coefficients, samples = _refined(
+        score.hypothesis, model, obs.searched_again(fitted), fit, smoothed, rich, rng
+    )
     candidate = PartialCandidate(score, smoothed, features, coefficients, samples, inclusion)
     if not features:
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
-    tests_after, after = _tests(corrected, obs, settings, backward=False)
+    tests_after, after = _tests(corrected, obs.searched_again(corrected), settings, backward=False)
     flagged = [t.channel for t in tests if t.flagged]
     candidate.corrected, candidate.tests_after, candidate.log_likelihood = corrected, tests_after, after.log_likelihood
     candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
