@@ -281,10 +281,9 @@ def _fit(
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
     rng = np.random.default_rng(seed)
     *fit, inclusion = _closed_form(score.hypothesis, model, smoothed, obs, settings, rng, rich)
-    fitted = score.hypothesis.corrected(model, *fit[:2]) if fit[0] else model
-    features, coefficients, samples = _refined(
-        score.hypothesis, model, obs.searched_again(fitted), fit, smoothed, rich, rng
-    )
+    features, coefficients, _ = fit
+    placed = obs.searched_again(score.hypothesis.corrected(model, features, coefficients)) if features else obs
+    features, coefficients, samples = _refined(score.hypothesis, model, placed, fit, smoothed, rich, rng)
     candidate = PartialCandidate(score, smoothed, features, coefficients, samples, inclusion)
     if not features:
         return candidate
