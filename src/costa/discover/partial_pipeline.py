@@ -69,8 +69,8 @@ def _estimation_windows(
     if not start_is_searched(held.y, held.channels):
         return evaluation, start_steps
     needed = min(held.y.shape[1], max(start_steps, round(START_SEARCH_S / held.dt)))
-    windows = {
-        name: (low, max(high, needed)) if high == start_steps else (max(low, needed) if low else low, high)
+    windows = {  # the first window ends at ``needed``; a later one starts there at the earliest
+        name: (low, needed) if high == start_steps else (max(low, needed) if low > 0 else low, high)
         for name, (low, high) in evaluation.windows.items()
     }
     if any(low >= high for low, high in windows.values()):
