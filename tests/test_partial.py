@@ -278,6 +278,20 @@ def test_where_the_start_needs_the_first_hand_samples_the_gaps_first_window_hold
         _estimation_windows(short, replace(pot_line, y=y, u=pot_line.u[:, :3000]), "cell.csv")
 
 
+def test_the_channel_tests_leave_out_the_hours_a_searched_start_settles_in():
+    """Where the first state is searched (no composition sampled at the first step), the channel
+    tests start after 16 h of samples; where the first samples place it, at the first sample."""
+    steps = 17280
+    y = np.full((2, steps, 3), np.nan)
+    y[..., 0] = 4.2
+    y[:, 1080::2880, 1:] = 0.1
+    pot_line = Observations(y, np.zeros((2, steps, 5)), ("U_cell", "c2", "c3"), np.ones(3), 10.0)
+    assert pot_line.settling_steps == 16 * 360
+    y = y.copy()
+    y[:, 0, 1:] = 0.1
+    assert replace(pot_line, y=y).settling_steps == 0
+
+
 def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_lost():
     """Where the uncorrected model's filter diverges, no difference from it is evidence: there the
     models are compared with the best of them, a model that loses a trajectory gains minus

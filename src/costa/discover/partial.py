@@ -30,7 +30,7 @@ from ..physics import CellModel
 from .estimator import Smoothed, StateSpaceModel, smooth
 from .hypotheses import Hypothesis
 from .library import Feature
-from .observed import NOMINAL_STATE, PROCESS_STD, prior, searched_start
+from .observed import NOMINAL_STATE, PROCESS_STD, SETTLE_S, prior, searched_start, start_is_searched
 from .weak_form import estimate_noise
 
 __all__ = [
@@ -76,6 +76,12 @@ class Observations:
         uncorrected one was (a start chosen under a model without the effect derails the right
         model's filter: the liquidus case's true model loses 3.8e6 of log-likelihood from it)."""
         return self if self.start is None else self.with_start(model)
+
+    @property
+    def settling_steps(self) -> int:
+        """The first steps whose innovations the channel tests leave out: those of :data:`.observed.SETTLE_S`
+        where the first state is searched, none where the first samples place it."""
+        return round(SETTLE_S / self.dt) if start_is_searched(self.y, self.channels) else 0
 
     def prior(self) -> tuple[np.ndarray, np.ndarray]:
         """Prior mean (n, 8) and covariance (8, 8) of the first state."""

@@ -102,10 +102,14 @@ def run_partial_discovery(
         raise TrajectoryDataError(
             f"{source}: the held-out trajectories measure {list(held.channels)}, the others {list(obs.channels)}"
         )
-    if obs.y.shape[1] < 4 * settings.window + 1:
+    needed = obs.settling_steps + 4 * settings.window + 1
+    if obs.y.shape[1] < needed:
+        settling = f" after the first {obs.settling_steps}, where the filter settles from a searched start" * bool(
+            obs.settling_steps
+        )
         raise TrajectoryDataError(
             f"{source}: trajectories of {obs.y.shape[1]} samples are too short; discovery needs at least "
-            f"{4 * settings.window + 1} (4 windows of discovery.window_steps = {settings.window})"
+            f"{needed} (4 windows of discovery.window_steps = {settings.window}{settling})"
         )
     evaluation, start_steps = _estimation_windows(evaluation, held, source)  # checked before the search runs
     started = time.perf_counter()

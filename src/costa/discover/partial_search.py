@@ -261,7 +261,8 @@ def _tests(
     model: CellModel, obs: Observations, settings: DiscoverySettings, backward: bool = True
 ) -> tuple[list[ChannelTest], Smoothed]:
     smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward, obs.start)
-    return innovation_tests(smoothed.innovation, obs.channels, settings.z_threshold, settings.min_excess), smoothed
+    settled = smoothed.innovation[:, obs.settling_steps :]
+    return innovation_tests(settled, obs.channels, settings.z_threshold, settings.min_excess), smoothed
 
 
 def _fit(
