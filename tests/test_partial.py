@@ -292,6 +292,30 @@ def test_the_channel_tests_leave_out_the_hours_a_searched_start_settles_in():
     assert replace(pot_line, y=y).settling_steps == 0
 
 
+def test_a_pot_line_record_too_short_to_test_after_the_filter_settles_is_refused(default_config):
+    """12 h of a pot line's record: the channel tests would start after 16 h, so discovery refuses
+    it before any search, naming the file and why."""
+    from costa.data import TrajectoryDataError
+
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=12, trajectories=2, held_out_trajectories=1)
+    train, held_out = case_tables(config, "no_effect", "plant")
+    with pytest.raises(
+        TrajectoryDataError,
+        match=r"pot.csv: trajectories of 4320 samples are too short; discovery needs at least 6017 "
+        r"\(4 windows of discovery.window_steps = 64 after the first 5760, where the filter settles",
+    ):
+        run_discovery(
+            config,
+            train,
+            held_out,
+            starting_model(config, "full"),
+            "pot",
+            "pot.csv",
+            {"x6": 1.5, "c3": 0.002, "x5": 15},
+        )
+
+
 def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_lost():
     """Where the uncorrected model's filter diverges, no difference from it is evidence: there the
     models are compared with the best of them, a model that loses a trajectory gains minus
