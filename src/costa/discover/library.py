@@ -19,7 +19,7 @@ import numpy as np
 
 from ..physics import CellVariables
 
-__all__ = ["Feature", "feature_library"]
+__all__ = ["FIRST_ORDER", "FLOW_INPUTS", "Feature", "feature_library"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +75,12 @@ def _centred(name: str) -> tuple[str, Callable]:
     nominal, read = _VARIABLES[name]
     label = name if nominal == 0 else f"({name} - {nominal:g})"
     return label, lambda v, q, read=read, nominal=nominal: read(v, q) - nominal
+
+
+#: a constant and the bath's composition and temperature, linear: the first-order closed form of a
+#: rate, which the measured channels weigh beside the terms a regression selected (a selected proxy
+#: such as the superheat, itself a function of them, is then kept only where the channels need it)
+FIRST_ORDER = ("1", *(_centred(name)[0] for name in ("c2", "c3", "x6")))
 
 
 #: variables whose squares and pairwise products form the richer library of later rounds

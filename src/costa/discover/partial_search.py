@@ -35,10 +35,10 @@ import numpy as np
 
 from ..observe import observe
 from ..physics import CellModel
-from ..variables import CHANNELS, INPUTS
+from ..variables import CHANNELS
 from .estimator import ChannelTest, Smoothed, innovation_tests
 from .hypotheses import Hypothesis, candidate_hypotheses
-from .library import FLOW_INPUTS, Feature
+from .library import FIRST_ORDER, FLOW_INPUTS, Feature
 from .observed import estimate_states
 from .partial import (
     HypothesisScore,
@@ -211,26 +211,32 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     """The closed form ``fit`` (features, coefficients, samples) refined on the measured channels
     (:func:`.partial.refine_coefficients`), with samples of their posterior in place of the bootstrap's.
 
-    The flow inputs of the hypothesis' library (the feed and tapping, one-step doses) are refined
-    beside the selected terms: a delta proportional to a dose is a train of spikes that the
-    smoothed random walk spreads out, so the regression cannot see it, but the measured channels
-    can.  The terms whose interval then covers zero are dropped and the rest refined again (all at
-    once: each refinement is a pass of the filter over every trajectory).  Unchanged where the
-    refinement is not trustworthy."""
+    Beside the selected terms, the library's flow inputs (the feed and tapping, one-step doses)
+    and its first-order terms (:data:`.library.FIRST_ORDER`) are refined: a delta proportional to
+    a dose is a train of spikes that the smoothed random walk spreads out, so the regression
+    cannot see it, but the measured channels can; and where the regression on a delta smoothed
+    from sparse samples picked a proxy (the superheat for a rate that rises with the temperature
+    and the AlF3 content), the channels weigh it against the variables it stands for.  Each
+    added term starts at 0, with a prior width (five times its samples' spread) that makes it
+    twice as large as the smoothed delta (mean absolute values over the data).  The terms whose interval then covers zero are dropped
+    and the rest refined again, in one pass linearised at the coefficients already refined (all
+    at once: each pass is a run of the filter over every trajectory).  Unchanged where the refinement is not trustworthy."""
     original, succeeded = fit, False
     features, coefficients, samples = fit
     names = {f.name for f in features}
-    doses = [f for f in h.features(rich) if f.name in FLOW_INPUTS and f.name not in names]
-    if doses:
+    added = [f for f in h.features(rich) if f.name in FLOW_INPUTS + FIRST_ORDER and f.name not in names]
+    if added:
         size = np.nanmean(np.abs(smoothed.mean[..., 8]))
-        level = [np.mean(obs.u[..., INPUTS.index(f.name)]) for f in doses]
-        features = [*features, *doses]
-        coefficients = np.append(coefficients, np.zeros(len(doses)))
-        spread = [2 * size / max(mean, 1e-300) for mean in level]
-        samples = np.column_stack([samples, rng.standard_normal((len(samples), len(doses))) * spread])
+        x = smoothed.mean[..., :8]
+        values = np.concatenate([h.feature_values(model, added, x[i : i + 1], obs.u[i : i + 1]) for i in range(len(x))])
+        typical = np.nanmean(np.abs(values.reshape(-1, len(added))), axis=0)
+        features = [*features, *added]
+        coefficients = np.append(coefficients, np.zeros(len(added)))
+        spread = 0.4 * size / np.maximum(typical, 1e-300)
+        samples = np.column_stack([samples, rng.standard_normal((len(samples), len(added))) * spread])
     while features:
         width = np.maximum(0.5 * np.abs(coefficients), 5 * samples.std(axis=0)) + 1e-300
-        refined = refine_coefficients(model, h, features, coefficients, width, obs)
+        refined = refine_coefficients(model, h, features, coefficients, width, obs, passes=1 if succeeded else 2)
         if refined is None:
             return (features, coefficients, samples) if succeeded else original
         (coefficients, covariance), succeeded = refined, True
