@@ -218,9 +218,10 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     from sparse samples picked a proxy (the superheat for a rate that rises with the temperature
     and the AlF3 content), the channels weigh it against the variables it stands for.  Each
     added term starts at 0, with a prior width (five times its samples' spread) that makes it
-    twice as large as the smoothed delta (mean absolute values over the data).  The terms whose interval then covers zero are dropped
-    and the rest refined again, in one pass linearised at the coefficients already refined (all
-    at once: each pass is a run of the filter over every trajectory).  Unchanged where the refinement is not trustworthy."""
+    twice as large as the smoothed delta (mean absolute values over the data).  The terms whose
+    interval then covers zero are dropped and the rest refined again, in one pass linearised at
+    the coefficients already refined (all at once: each pass is a run of the filter over every
+    trajectory).  Unchanged where the refinement is not trustworthy."""
     original, succeeded = fit, False
     features, coefficients, samples = fit
     names = {f.name for f in features}
