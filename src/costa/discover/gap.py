@@ -99,9 +99,8 @@ def _rollout_from_estimate(model: CellModel, obs: Observations, start_steps: int
     searched on those samples too, under ``model``: nothing the rollout is scored on after them
     places its start, and each model starts where it would place the cell itself)."""
     early = dataclasses.replace(obs, y=obs.y[:, :start_steps], u=obs.u[:, :start_steps]).with_start(model)
-    first = estimate_states(model, early.y, early.u, early.channels, early.noise, early.dt, start=early.start).mean[
-        :, :1
-    ]
+    estimated = estimate_states(model, early.y, early.u, early.channels, early.noise, early.dt, start=early.start)
+    first = estimated.mean[:, :1]
     start = np.concatenate([first, np.zeros((obs.y.shape[0], obs.y.shape[1] - 1, 8))], axis=1)
     with np.errstate(all="ignore"):
         return observe(model, rollout_physics(model, start, obs.u, obs.dt), obs.u, obs.channels)

@@ -104,8 +104,10 @@ def run_partial_discovery(
         )
     needed = obs.settling_steps + 4 * settings.window + 1
     if obs.y.shape[1] < needed:
-        settling = f" after the first {obs.settling_steps}, where the filter settles from a searched start" * bool(
-            obs.settling_steps
+        settling = (
+            f" after the first {obs.settling_steps}, where the filter settles from a searched start"
+            if obs.settling_steps
+            else ""
         )
         raise TrajectoryDataError(
             f"{source}: trajectories of {obs.y.shape[1]} samples are too short; discovery needs at least "

@@ -233,7 +233,7 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
         typical = np.nanmean(np.abs(values.reshape(-1, len(added))), axis=0)
         features = [*features, *added]
         coefficients = np.append(coefficients, np.zeros(len(added)))
-        spread = 0.4 * size / np.maximum(typical, 1e-300)
+        spread = 0.4 * size / np.maximum(typical, 1e-300)  # the prior width below, 5 spreads: twice the delta
         samples = np.column_stack([samples, rng.standard_normal((len(samples), len(added))) * spread])
     while features:
         width = np.maximum(0.5 * np.abs(coefficients), 5 * samples.std(axis=0)) + 1e-300
