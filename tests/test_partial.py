@@ -393,3 +393,92 @@ def test_the_screen_sends_the_best_few_and_their_exact_ties_to_a_fit():
     assert [s.hypothesis.key for s in best_screened(weak, settings)] == ["a"]
     lost = [score("a", 2.0, 3), score("b", -np.inf, 2), *(score(k, -np.inf, 2) for k in "cdefgh")]
     assert [s.hypothesis.key for s in best_screened(lost, settings)] == ["a", "b"]
+
+
+def test_hypotheses_of_the_same_physics_are_fitted_once_as_the_one_named_first():
+    """A part that enters only the AlF3 balance (its neutralisation by the feed's Na2O) and a flow
+    added to that balance change every state rate alike: one fit serves both, under the name the
+    naming rule gives (the added flow before a part); so do the electric power and a flow added to
+    the bath's heat balance.  The feeder's gain, which enters the alumina balance too, and the ACD,
+    the bubbles and the bath's conductivity, which all change the voltage but in proportions that
+    vary with the current and the composition (by 2.5-5.5 % over cells 2 % apart), are fitted each on
+    its own."""
+    from costa.discover.observed import NOMINAL_STATE
+    from costa.discover.partial import HypothesisScore
+    from costa.discover.partial_search import distinct_physics
+
+    model = true_model()
+    by_key = {h.key: h for h in candidate_hypotheses(model)}
+    keys = ["part:alf3_neutralisation", "input:u1", "term:alf3_mass", "part:electric_power", "input:u5"]
+    keys += ["part:bubble_coverage", "term:bath_energy", "part:bath_conductivity"]
+    scales = (1e-4, 0.05, 2e-4, 3.0, 1e-4, 1e-3, 3.0, 1e-3)
+    scores = [HypothesisScore(by_key[k], scale, 0.0, 1.0) for k, scale in zip(keys, scales, strict=True)]
+    rng = np.random.default_rng(2)
+    x = NOMINAL_STATE * (1 + 0.02 * rng.standard_normal((30, 8)))
+    u = np.array([2.0, 140000.0, 0.1, 0.0, 0.05]) * (1 + 0.02 * rng.random((30, 5)))
+    kept = [s.hypothesis.key for s in distinct_physics(scores, model, x, u)]
+    assert kept == ["term:alf3_mass", "input:u1", "term:bath_energy", "input:u5", "part:bubble_coverage"] + [
+        "part:bath_conductivity"
+    ]
+
+
+def test_a_trajectory_whose_filter_was_lost_leaves_the_closed_form_to_the_others():
+    """delta(t) = -0.002 - 0.02 (c3 - 0.11) [kg/s] in the AlF3 balance, smoothed on four cells of
+    which one filter was lost an hour in (its states overflow, then turn NaN): the regression
+    finds the same terms and coefficients from the three it holds, where the lost cell used to make
+    every coefficient NaN."""
+    from costa.discover.estimator import Smoothed
+    from costa.discover.partial_search import _closed_form
+
+    model = true_model()
+    settings = SimulationSettings.from_config(load_config()["simulation"])
+    trajectories, _ = simulate_set(model, replace(settings, steps=1280), 4, 5, 0, "lost")
+    x = trajectories.x
+    c3 = x[..., 2] / x[..., 1:4].sum(-1)
+    delta = -0.002 - 0.02 * (c3 - 0.11)
+    mean = np.concatenate([x, delta[..., None]], axis=-1)
+    std = np.full(mean.shape, 1e-4)
+    obs = Observations(x[..., 5:6], trajectories.u, ("x6",), np.array([1.0]), 10.0)
+    (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
+    settings = DiscoverySettings(bootstrap=20)
+
+    def fitted(mean, obs):
+        smoothed = Smoothed(mean, std[: len(mean)], np.zeros((len(mean), 1280, 1)), np.zeros(len(mean)), None)
+        features, coefficients, _, _ = _closed_form(
+            term, model, smoothed, obs, settings, np.random.default_rng(0), False
+        )
+        return dict(zip([f.name for f in features], coefficients, strict=True))
+
+    held = fitted(mean[1:], obs.subset(slice(1, None)))
+    lost = mean.copy()
+    lost[0, 360:400] = 1e200
+    lost[0, 400:] = np.nan
+    with_lost = fitted(lost, obs)
+    assert held.keys() == with_lost.keys() == {"1", "(c3 - 0.11)"}
+    assert with_lost["1"] == pytest.approx(-0.002, rel=1e-3)
+    assert with_lost["(c3 - 0.11)"] == pytest.approx(-0.02, rel=1e-3)
+
+
+def test_the_refinement_combines_the_trajectories_whose_filter_holds():
+    """AlF3 lost at a constant 0.003 kg/s, refined from 0 on four cells' AlF3 fraction, one of which
+    has a step the model cannot evaluate (its filter is lost): the other three give the same answer
+    as alone, the truth within its interval, where one lost cell used to void the refinement."""
+    from costa.discover.partial import refine_coefficients
+
+    model = true_model()
+    (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
+    constant = [f for f in term.features(False) if f.name == "1"]
+    truth = term.corrected(model, constant, [-0.003])
+    settings = SimulationSettings.from_config(load_config()["simulation"])
+    trajectories, _ = simulate_set(truth, replace(settings, steps=720), 4, 5, 0, "refined")
+    x = trajectories.x
+    c3 = x[..., 2:3] / x[..., 1:4].sum(-1, keepdims=True)
+    y = np.concatenate([c3, x[..., 5:6]], axis=-1) + np.random.default_rng(1).normal(0, [1e-4, 0.2], x.shape[:2] + (2,))
+    obs = Observations(y, trajectories.u, ("c3", "x6"), np.array([1e-4, 0.2]), 10.0)
+    width = np.array([0.01])
+    alone = refine_coefficients(model, term, constant, np.zeros(1), width, obs.subset(slice(1, None)))
+    obs.u[0, 100, 1] = np.nan  # no line current logged: the model's rates are NaN from there
+    refined = refine_coefficients(model, term, constant, np.zeros(1), width, obs)
+    assert refined is not None and alone is not None
+    np.testing.assert_allclose(refined[0], alone[0], rtol=1e-9)
+    assert abs(refined[0][0] + 0.003) < 4 * np.sqrt(refined[1][0, 0])

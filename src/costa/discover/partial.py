@@ -318,8 +318,9 @@ def refine_coefficients(
     delta (a tapping's step, a fast change): here the coefficients are constant states of the
     smoother, with a prior N(coefficients, width^2) and no process noise, so the measured
     channels themselves fit them.  Each trajectory's posterior is combined into one (the product
-    of the trajectories' likelihoods), and each further pass re-linearises around the result.
-    None where the combined posterior is not a proper Gaussian (too nonlinear to trust).
+    of the trajectories' likelihoods; a trajectory whose filter is lost is left out), and each
+    further pass re-linearises around the result.  None where the combined posterior is not a
+    proper Gaussian (too nonlinear to trust) or half the trajectories or more are lost.
     """
     p = len(features)
     current: dict[str, np.ndarray] = {}
@@ -349,14 +350,16 @@ def refine_coefficients(
         # in units of the prior widths, where the prior's precision is the identity (the
         # coefficients' own scales span many decades: a check in raw units tests rounding)
         means, covs = result.mean[:, -1, 8:] / width, result.final_cov[:, 8:, 8:] / np.outer(width, width)
-        if not (np.isfinite(means).all() and np.isfinite(covs).all()):
+        held = np.isfinite(means).all(1) & np.isfinite(covs).all((1, 2))
+        if 2 * held.sum() <= n:
             return None
+        means, covs, m = means[held], covs[held], int(held.sum())
         try:
             precisions = np.linalg.inv(covs)
         except np.linalg.LinAlgError:
             return None
-        total = precisions.sum(0) - (n - 1) * np.eye(p)
+        total = precisions.sum(0) - (m - 1) * np.eye(p)
         if np.any(np.linalg.eigvalsh(0.5 * (total + total.T)) <= 0):
             return None
-        theta = width * np.linalg.solve(total, np.einsum("nij,nj->i", precisions, means) - (n - 1) * theta / width)
+        theta = width * np.linalg.solve(total, np.einsum("nij,nj->i", precisions, means) - (m - 1) * theta / width)
     return theta, np.linalg.inv(total) * np.outer(width, width)

@@ -51,12 +51,15 @@ from .partial import (
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
 from .search import KEEP_LEVEL, DiscoverySettings, FittedTerms, independent_columns, naming_order, weakest_term
 
-__all__ = ["PartialRound", "discover_partial", "separating_channel"]
+__all__ = ["PartialRound", "discover_partial", "distinct_physics", "separating_channel"]
 
 log = logging.getLogger(__name__)
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
 SAME_PHYSICS = 0.05
+#: two hypotheses whose changes of the state rates, each at a constant delta, differ by less than this
+#: share (rounding) are one fit: unlike fitted corrections, no closed form can tell them apart
+SAME_EFFECT = 1e-4
 
 
 @dataclass
@@ -191,6 +194,9 @@ def _closed_form(
     means = theta.reshape(n, a, window, -1).mean(2)
     target = delta[:, :cut].reshape(n, a, window).mean(2)
     weight = 1.0 / np.sqrt(np.maximum((std[:, :cut] ** 2).reshape(n, a, window).mean(2), 1e-300))
+    held = np.isfinite(means).all((1, 2)) & np.isfinite(target).all(1) & np.isfinite(weight).all(1)
+    weight[~held] = 0.0  # a trajectory whose filter was lost says nothing of delta
+    means[~held], target[~held] = 0.0, 0.0
     rows = np.nan_to_num(means * weight[..., None]).reshape(-1, len(library))
     independent = independent_columns(rows)  # a constant part's own value duplicates the constant term
     library, rows = [library[i] for i in independent], rows[:, independent]
@@ -262,6 +268,46 @@ def best_screened(screened: Sequence[HypothesisScore], settings: DiscoverySettin
         s for s in screened[len(top) :] if top and s.rank_key == top[-1].rank_key and np.isfinite(s.log_likelihood_gain)
     ]
     return [s for s in top + ties if s.log_likelihood_gain > 0 or s.rescued > 0]
+
+
+def distinct_physics(
+    scores: Sequence[HypothesisScore], model: CellModel, x: np.ndarray, u: np.ndarray, named: Sequence[str] = ()
+) -> list[HypothesisScore]:
+    """One of each group of screened hypotheses that change every state rate alike, to rounding, at
+    the states x (N, 8) and inputs u (N, 5), each shifted by its own scale: the same physics (an
+    added flow in the AlF3 balance and the same change of a part that enters only that balance),
+    whose fits would be the same fit.  Not hypotheses that differ by a factor that varies with the
+    state (the ACD, the bath's conductivity and the bubbles all change the voltage, but in
+    proportions that vary with the line current and the composition): their closed forms differ.
+    The one kept is the one :func:`.search.naming_order` names first; the order of the groups is
+    that of their best member."""
+    with np.errstate(all="ignore"):
+        base = model.rhs(x, u)
+        effects = [np.nan_to_num(s.hypothesis.shifted(model, s.scale).rhs(x, u) - base) for s in scores]
+    groups: list[list[int]] = []
+    for i, effect in enumerate(effects):
+        group = next((g for g in groups if _proportional(effect, effects[g[0]])), None)
+        group.append(i) if group is not None else groups.append([i])
+    reads = model.reads(x[:1], u[:1])
+    kept = [naming_order([scores[i] for i in g], named, reads)[0] for g in groups]
+    for g, first in zip(groups, kept, strict=True):
+        if len(g) > 1:
+            log.info(
+                "fitted once as %s, the same physics: %s", first.hypothesis.key, [scores[i].hypothesis.key for i in g]
+            )
+    return kept
+
+
+def _proportional(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two changes of the state rates (N, 8) are proportional (either sign) to rounding
+    (:data:`SAME_EFFECT`), each state's rate in units of the larger change of it."""
+    scale = np.maximum(np.abs(a), np.abs(b)).max(axis=0) + 1e-300
+    a, b = (a / scale).ravel(), (b / scale).ravel()
+    norms = np.linalg.norm(a), np.linalg.norm(b)
+    if min(norms) == 0:
+        return False
+    a, b = a / norms[0], b / norms[1]
+    return bool(min(np.linalg.norm(a - b), np.linalg.norm(a + b)) < SAME_EFFECT)
 
 
 def _tests(
@@ -340,7 +386,9 @@ def discover_round(
         "screened %d hypotheses on %d trajectories in %.1f s", len(screened), len(few.y), time.perf_counter() - started
     )
     seed = rng.integers(2**63)
-    ranking = [_fit(s, model, obs, settings, seed, rich, tests) for s in best_screened(screened, settings)]
+    screen_x, screen_u = (a[:, ::16].reshape(-1, a.shape[-1]) for a in (states, few.u))
+    candidates = distinct_physics(best_screened(screened, settings), model, screen_x, screen_u, named)
+    ranking = [_fit(s, model, obs, settings, seed, rich, tests) for s in candidates]
     _score(ranking, base.log_likelihood, int(np.isfinite(obs.y).sum()))
     ranking.sort(key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)
