@@ -482,3 +482,27 @@ def test_the_refinement_combines_the_trajectories_whose_filter_holds():
     assert refined is not None and alone is not None
     np.testing.assert_allclose(refined[0], alone[0], rtol=1e-9)
     assert abs(refined[0][0] + 0.003) < 4 * np.sqrt(refined[1][0, 0])
+
+
+def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monkeypatch):
+    """Smoothed along current_efficiency, alumina_feeder's plant record holds 6 of its 12 cells: no
+    closed form rests on the other half (the refinement gives up at the same share), so the
+    candidate goes on with no terms, and none of the fit's stages runs; 7 of 12 is fitted."""
+    from costa.discover import partial_search
+    from costa.discover.estimator import Smoothed
+    from costa.discover.partial import HypothesisScore, mostly_lost
+
+    assert mostly_lost(np.arange(12) < 6) and not mostly_lost(np.arange(12) < 7)
+    mean = np.ones((12, 5, 9))
+    mean[6:, 3:] = np.nan
+    smoothed = Smoothed(mean, mean, np.zeros((12, 5, 1)), np.zeros(12), None)
+    monkeypatch.setattr(partial_search, "smooth_hypothesis", lambda *args: smoothed)
+
+    def never(*args):
+        raise AssertionError("a hypothesis lost on half the cells was fitted")
+
+    monkeypatch.setattr(partial_search, "_closed_form", never)
+    score = HypothesisScore(SimpleNamespace(key="property:current_efficiency"), 1.0, 0.3, 1.0)
+    obs = Observations(np.zeros((12, 5, 1)), np.zeros((12, 5, 5)), ("U_cell",), np.ones(1), 10.0)
+    candidate = partial_search._fit(score, true_model(), obs, DiscoverySettings(), 0, False, [])
+    assert candidate.features == [] and candidate.corrected is None and candidate.samples.shape == (200, 0)

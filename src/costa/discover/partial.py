@@ -39,6 +39,7 @@ __all__ = [
     "channel_noise",
     "hypothesis_scales",
     "likelihood_gains",
+    "mostly_lost",
     "score_hypotheses",
     "refine_coefficients",
     "smooth_hypothesis",
@@ -302,6 +303,12 @@ def smooth_hypothesis(model: CellModel, score: HypothesisScore, obs: Observation
     return result
 
 
+def mostly_lost(held: np.ndarray) -> bool:
+    """Whether the filter is lost on half the trajectories or more (``held`` (n,) bool): what is
+    estimated from the rest is too little to trust."""
+    return 2 * int(np.sum(held)) <= len(held)
+
+
 def refine_coefficients(
     model: CellModel,
     hypothesis: Hypothesis,
@@ -351,7 +358,7 @@ def refine_coefficients(
         # coefficients' own scales span many decades: a check in raw units tests rounding)
         means, covs = result.mean[:, -1, 8:] / width, result.final_cov[:, 8:, 8:] / np.outer(width, width)
         held = np.isfinite(means).all(1) & np.isfinite(covs).all((1, 2))
-        if 2 * held.sum() <= n:
+        if mostly_lost(held):
             return None
         means, covs, m = means[held], covs[held], int(held.sum())
         try:

@@ -44,6 +44,7 @@ from .partial import (
     HypothesisScore,
     Observations,
     likelihood_gains,
+    mostly_lost,
     refine_coefficients,
     score_hypotheses,
     smooth_hypothesis,
@@ -330,9 +331,13 @@ def _fit(
     """Smooth one hypothesis on every trajectory, fit its closed form, refine its coefficients on the
     measured channels, test the corrected model's innovations and keep its likelihood (scored
     against the other candidates by :func:`_score`).  Every candidate of a round resamples with
-    the same ``seed``."""
+    the same ``seed``.  A hypothesis whose smoothed filter is lost on half the trajectories or
+    more is not fitted (its refinement would give up there too)."""
     started = time.perf_counter()
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
+    if mostly_lost(np.isfinite(smoothed.mean).all((1, 2))):
+        log.info("%s: its filter is lost on half the trajectories or more, not fitted", score.hypothesis.key)
+        return PartialCandidate(score, smoothed, [], np.zeros(0), np.zeros((settings.bootstrap, 0)), {})
     rng = np.random.default_rng(seed)
     *fit, inclusion = _closed_form(score.hypothesis, model, smoothed, obs, settings, rng, rich)
     features, coefficients, _ = fit
