@@ -6,8 +6,10 @@ One round on the current model:
    and whiteness (:func:`.estimator.innovation_tests`); nothing flagged -> stop;
 2. every hypothesis gets a random-walk delta(t) in the smoother and is scored, on a few
    trajectories, by the log-likelihood it gains (:func:`.partial.score_hypotheses`);
-   the best ``partial_candidates`` go on;
-3. each of those is smoothed on all trajectories, its delta(t) regressed on the physical
+   the best ``partial_candidates`` go on, one of each group of the same physics
+   (:func:`distinct_physics`);
+3. each of those is smoothed on all trajectories (one whose filter is lost on half of
+   them or more goes no further), its delta(t) regressed on the physical
    terms (:mod:`.library`) evaluated at the smoothed states, window by window, with one
    bootstrap over blocks of trajectories for selection and intervals (a term is kept
    only if its :data:`.search.KEEP_LEVEL` interval excludes zero), and the corrected
@@ -288,7 +290,10 @@ def distinct_physics(
     groups: list[list[int]] = []
     for i, effect in enumerate(effects):
         group = next((g for g in groups if _proportional(effect, effects[g[0]])), None)
-        group.append(i) if group is not None else groups.append([i])
+        if group is None:
+            groups.append([i])
+        else:
+            group.append(i)
     reads = model.reads(x[:1], u[:1])
     kept = [naming_order([scores[i] for i in g], named, reads)[0] for g in groups]
     for g, first in zip(groups, kept, strict=True):
