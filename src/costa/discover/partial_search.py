@@ -180,6 +180,13 @@ def separating_channel(
     return unmeasured[int(np.nanargmax(difference / spread))]
 
 
+def _feature_values(
+    h: Hypothesis, model: CellModel, features: Sequence[Feature], x: np.ndarray, u: np.ndarray
+) -> np.ndarray:
+    """The features' values (n, K, P) at the states x (n, K, 8) and inputs u (n, K, 5), one trajectory at a time."""
+    return np.concatenate([h.feature_values(model, features, x[i : i + 1], u[i : i + 1]) for i in range(len(x))])
+
+
 def _closed_form(
     h: Hypothesis, model: CellModel, smoothed: Smoothed, obs: Observations, settings: DiscoverySettings, rng, rich: bool
 ):
@@ -191,9 +198,7 @@ def _closed_form(
     window = settings.window
     a = steps // window
     cut = a * window
-    theta = np.concatenate(
-        [h.feature_values(model, library, x[i : i + 1, :cut], obs.u[i : i + 1, :cut]) for i in range(n)]
-    )
+    theta = _feature_values(h, model, library, x[:, :cut], obs.u[:, :cut])
     means = theta.reshape(n, a, window, -1).mean(2)
     target = delta[:, :cut].reshape(n, a, window).mean(2)
     weight = 1.0 / np.sqrt(np.maximum((std[:, :cut] ** 2).reshape(n, a, window).mean(2), 1e-300))
@@ -237,8 +242,7 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     added = [f for f in h.features(rich) if f.name in FLOW_INPUTS + FIRST_ORDER and f.name not in names]
     if added:
         size = np.nanmean(np.abs(smoothed.mean[..., 8]))
-        x = smoothed.mean[..., :8]
-        values = np.concatenate([h.feature_values(model, added, x[i : i + 1], obs.u[i : i + 1]) for i in range(len(x))])
+        values = _feature_values(h, model, added, smoothed.mean[..., :8], obs.u)
         typical = np.nanmean(np.abs(values.reshape(-1, len(added))), axis=0)
         features = [*features, *added]
         coefficients = np.append(coefficients, np.zeros(len(added)))
