@@ -395,6 +395,32 @@ def test_the_screen_sends_the_best_few_and_their_exact_ties_to_a_fit():
     assert [s.hypothesis.key for s in best_screened(lost, settings)] == ["a", "b"]
 
 
+def test_each_round_tests_its_model_from_the_start_that_model_places_the_cell_at(monkeypatch):
+    """The first round runs from the starting model's start; each later round's model (the one
+    corrected so far) from the start it searches itself, as its correction was scored: from the
+    uncorrected model's starts a right correction's channels still looked wrong, and a second round
+    named a second effect that is not there."""
+    from costa.discover import partial_search
+
+    class Placed:
+        def __init__(self, label):
+            self.label = label
+
+        def searched_again(self, model):
+            return Placed(f"searched under {model}")
+
+    seen = []
+
+    def one_round(model, obs, settings, rng, rich, named):
+        seen.append((model, obs.label))
+        chosen = SimpleNamespace(hypothesis=SimpleNamespace(key=f"h{len(seen)}"), tests_after=[])
+        return SimpleNamespace(named=chosen.hypothesis, chosen=chosen, corrected=f"m{len(seen)}")
+
+    monkeypatch.setattr(partial_search, "discover_round", one_round)
+    partial_search.discover_partial("m0", Placed("first"), DiscoverySettings(max_rounds=3))
+    assert seen == [("m0", "first"), ("m1", "searched under m1"), ("m2", "searched under m2")]
+
+
 def test_hypotheses_of_the_same_physics_are_fitted_once_as_the_one_named_first():
     """A part that enters only the AlF3 balance (its neutralisation by the feed's Na2O) and a flow
     added to that balance change every state rate alike: one fit serves both, under the name the
