@@ -451,17 +451,14 @@ def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySet
     """Rounds until no channel disagrees, nothing explains it, a correction explains too little,
     the measurements cannot tell the explanations apart, the best correction leaves a channel
     disagreeing (in both cases a further round would explain what is left of a guess), or
-    ``max_rounds``."""
+    ``max_rounds``.  Each round after the first runs from the start its model (the one corrected
+    so far) searches itself, as its correction was scored: from the uncorrected model's starts a
+    right correction can look wrong, and a second round name an effect that is not there."""
     rng = np.random.default_rng(settings.seed)
     rounds: list[PartialRound] = []
     current, rich = model, False
     for _ in range(settings.max_rounds):
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
-        # a corrected model is tested from the start it places the cell at itself, as its correction
-        # was scored (round 1's tests after it): from the uncorrected model's starts (with the
-        # estimates projected into a cell's range, tried and not kept) the feeder's right correction
-        # flagged a pot line's bath temperature, voltage and AlF3 at 10-15 times their noise variance
-        # (1.07, 0.98, 0.91 from its own), and a second round named a transfer of cryolite to metal
         placed = obs.searched_again(current) if rounds else obs
         found = discover_round(current, placed, settings, rng, rich, named)
         rounds.append(found)
