@@ -397,27 +397,24 @@ def test_the_screen_sends_the_best_few_and_their_exact_ties_to_a_fit():
 
 def test_each_round_tests_its_model_from_the_start_that_model_places_the_cell_at(monkeypatch):
     """The first round runs from the starting model's start; each later round's model (the one
-    corrected so far) from the start it searches itself, as its correction was scored: from the
-    uncorrected model's starts a right correction's channels still looked wrong, and a second round
-    named a second effect that is not there."""
+    corrected so far) from the start it searches itself, the one its correction was tested from
+    (searched once, in the round that chose it): from the uncorrected model's starts a right
+    correction's channels still looked wrong, and a second round named a second effect that is not
+    there."""
     from costa.discover import partial_search
-
-    class Placed:
-        def __init__(self, label):
-            self.label = label
-
-        def searched_again(self, model):
-            return Placed(f"searched under {model}")
 
     seen = []
 
     def one_round(model, obs, settings, rng, rich, named):
-        seen.append((model, obs.label))
-        chosen = SimpleNamespace(hypothesis=SimpleNamespace(key=f"h{len(seen)}"), tests_after=[])
-        return SimpleNamespace(named=chosen.hypothesis, chosen=chosen, corrected=f"m{len(seen)}")
+        seen.append((model, obs))
+        corrected = f"m{len(seen)}"
+        chosen = SimpleNamespace(
+            hypothesis=SimpleNamespace(key=f"h{len(seen)}"), tests_after=[], placed=f"searched under {corrected}"
+        )
+        return SimpleNamespace(named=chosen.hypothesis, chosen=chosen, corrected=corrected)
 
     monkeypatch.setattr(partial_search, "discover_round", one_round)
-    partial_search.discover_partial("m0", Placed("first"), DiscoverySettings(max_rounds=3))
+    partial_search.discover_partial("m0", "first", DiscoverySettings(max_rounds=3))
     assert seen == [("m0", "first"), ("m1", "searched under m1"), ("m2", "searched under m2")]
 
 

@@ -69,7 +69,8 @@ SAME_EFFECT = 1e-4
 class PartialCandidate(FittedTerms):
     """A hypothesis with its smoothed delta, the closed form fitted to it and the corrected model's
     score: ``bic_gain`` over the uncorrected model on the measured channels, ``explained`` the share
-    of the flagged channels' excess it removes."""
+    of the flagged channels' excess it removes; ``placed``: the observations with the start the
+    corrected model searches itself, from which it was tested (and a later round runs)."""
 
     score: HypothesisScore
     smoothed: Smoothed
@@ -83,6 +84,7 @@ class PartialCandidate(FittedTerms):
     bic_gain: float = -np.inf
     rescued: int = 0  # trajectories whose filter the correction holds where the uncorrected model's diverged
     explained: float = 0.0
+    placed: Observations | None = None
 
     @property
     def rank_key(self) -> tuple[int, float]:
@@ -356,7 +358,8 @@ def _fit(
     if not features:
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
-    tests_after, after = _tests(corrected, obs.searched_again(corrected), settings, backward=False)
+    candidate.placed = obs.searched_again(corrected)
+    tests_after, after = _tests(corrected, candidate.placed, settings, backward=False)
     flagged = [t.channel for t in tests if t.flagged]
     candidate.corrected, candidate.tests_after, candidate.log_likelihood = corrected, tests_after, after.log_likelihood
     candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
@@ -452,18 +455,18 @@ def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySet
     the measurements cannot tell the explanations apart, the best correction leaves a channel
     disagreeing (in both cases a further round would explain what is left of a guess), or
     ``max_rounds``.  Each round after the first runs from the start its model (the one corrected
-    so far) searches itself, as its correction was scored: from the uncorrected model's starts a
-    right correction can look wrong, and a second round name an effect that is not there."""
+    so far) searches itself, the one its correction was tested from (``placed``): from the
+    uncorrected model's starts a right correction can look wrong, and a second round name an
+    effect that is not there."""
     rng = np.random.default_rng(settings.seed)
     rounds: list[PartialRound] = []
-    current, rich = model, False
+    current, placed, rich = model, obs, False
     for _ in range(settings.max_rounds):
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
-        placed = obs.searched_again(current) if rounds else obs
         found = discover_round(current, placed, settings, rng, rich, named)
         rounds.append(found)
         if found.named is None:
             break
-        current = found.corrected
+        current, placed = found.corrected, found.chosen.placed
         rich = any(t.flagged for t in found.chosen.tests_after)
     return rounds
