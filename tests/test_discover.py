@@ -21,7 +21,7 @@ from costa.discover.regression import (
     selection_frequency,
     stepwise,
 )  # fmt: skip
-from costa.discover.search import Candidate, naming_order
+from costa.discover.search import Candidate, naming_order, removal
 from costa.discover.truth import TRUTHS
 from costa.discover.unshipped import UNSHIPPED
 from costa.discover.weak_form import WeakForm, equation_tests, estimate_noise
@@ -61,6 +61,12 @@ def test_a_disagreement_no_hypothesis_can_explain_is_reported_not_invented(clean
     rounds, _ = discover(ablated, add_noise(clean.x, 0.01, rng), clean.u, 10.0, settings)
     assert rounds[0].flagged and rounds[0].chosen is None
     assert "no hypothesis could remove" in rounds[0].verdict and rounds[0].window == 64
+
+
+def test_a_correction_that_makes_the_disagreement_worse_reads_as_such():
+    """The share removed is 1 - excess after / excess before: -200 % is an excess three times as large."""
+    assert removal(0.99) == "removes 99% of the excess"
+    assert removal(-2.0, "the flagged channels' excess") == "makes the flagged channels' excess 3.0 times as large"
 
 
 def test_sensitivities_match_the_analytic_derivatives(model, rng):

@@ -12,7 +12,7 @@ from ..variables import MEANING, STATES
 from .partial_pipeline import PartialResult
 from .partial_search import PartialRound
 from .pipeline import DiscoveryResult
-from .search import KEEP_LEVEL, Candidate, Round
+from .search import KEEP_LEVEL, Candidate, Round, removal
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)
@@ -348,7 +348,7 @@ def _round_lines(r: Mapping[str, Any]) -> list[str]:
     if r["alternatives"]:
         lines += ["", "Runners-up:"]
         lines += [
-            f"- `{c['hypothesis']}` removes {c['excess_removed']:.0%} of the excess (BIC gain {c['bic_gain']:.0f})"
+            f"- `{c['hypothesis']}` {removal(c['excess_removed'])} (BIC gain {c['bic_gain']:.0f})"
             for c in r["alternatives"]
         ]
     lines.append("")
@@ -410,7 +410,7 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
     if r["alternatives"]:
         lines += ["", "Runners-up:"]
         lines += [
-            f"- `{a['hypothesis']}` removes {a['excess_removed']:.0%} of the excess (BIC gain {a['bic_gain'] or 0:.0f})"
+            f"- `{a['hypothesis']}` {removal(a['excess_removed'])} (BIC gain {a['bic_gain'] or 0:.0f})"
             for a in r["alternatives"]
         ]
     return lines + [""]

@@ -52,7 +52,7 @@ from .partial import (
     smooth_hypothesis,
 )
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
-from .search import KEEP_LEVEL, DiscoverySettings, FittedTerms, independent_columns, naming_order, weakest_term
+from .search import KEEP_LEVEL, DiscoverySettings, FittedTerms, independent_columns, naming_order, removal, weakest_term
 
 __all__ = ["PartialRound", "discover_partial", "distinct_physics", "separating_channel"]
 
@@ -417,11 +417,7 @@ def discover_round(
         and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion
     ]
     if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
-        best = (
-            f"the best, {ranking[0].hypothesis.key}, removes {ranking[0].explained:.0%} of the excess"
-            if ranking
-            else ""
-        )
+        best = f"the best, {ranking[0].hypothesis.key}, {removal(ranking[0].explained)}" if ranking else ""
         verdict = f"channels {flagged} disagree beyond noise, but no candidate explains them" + (
             f": {best}" if best else ""
         )
@@ -446,7 +442,8 @@ def discover_round(
         )
     else:
         what = chosen.hypothesis.describe(model)
-    verdict = f"{what}; the correction removes {chosen.explained:.0%} of the flagged channels' excess"
+    effect = removal(chosen.explained, "the flagged channels' excess")
+    verdict = f"{what}; the correction {effect}"
     return PartialRound(model, tests, ranking, chosen, equivalent, not different, separated, verdict, dispersion)
 
 

@@ -42,7 +42,7 @@ from .weak_form import EquationTest, WeakForm, equation_tests, estimate_noise
 
 __all__ = [
     "KEEP_LEVEL", "Candidate", "DiscoverySettings", "FittedTerms", "Round", "discover", "independent_columns", "naming_order",
-    "percentile_intervals", "weakest_term",
+    "percentile_intervals", "removal", "weakest_term",
 ]  # fmt: skip
 
 #: a term is kept only if its bootstrap interval at this level excludes zero (the findings
@@ -406,6 +406,12 @@ def _consequences(h: Hypothesis, reads: Mapping[str, frozenset[str]]) -> set[str
     return computed
 
 
+def removal(share: float, excess: str = "the excess") -> str:
+    """What a correction does to ``excess`` (the excess over noise it removes, ``share`` of it), in
+    words: a negative share, an excess the correction made larger, reads as how many times as large."""
+    return f"makes {excess} {1 - share:.1f} times as large" if share < 0 else f"removes {share:.0%} of {excess}"
+
+
 def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:
     """Equally good explanations (items with a ``hypothesis``) in the order they are named: one
     refining an effect named in an earlier round; then the cause before its consequences (a part
@@ -468,15 +474,13 @@ def discover_round(
         top = ranking[0]
         verdict = (
             f"equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate explains it: the best, "
-            f"{top.hypothesis.key}, removes {top.explained:.0%} of the excess residual"
+            f"{top.hypothesis.key}, {removal(top.explained, 'the excess residual')}"
         )
         return Round(model, tests, where, ranking, None, [], verdict, rich, window)
     with np.errstate(all="ignore"):
         reads = model.reads(problem.left_x[:1, :1], problem.left_u[:1, :1])
     chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
-    verdict = (
-        f"{chosen.hypothesis.describe(model)}; the correction removes {chosen.explained:.0%} of the excess residual"
-    )
+    verdict = f"{chosen.hypothesis.describe(model)}; the correction {removal(chosen.explained, 'the excess residual')}"
     return Round(model, tests, where, ranking, chosen, equivalent, verdict, rich, window)
 
 
