@@ -66,7 +66,7 @@ def test_a_disagreement_no_hypothesis_can_explain_is_reported_not_invented(clean
 def test_a_correction_that_makes_the_disagreement_worse_reads_as_such():
     """The share removed is 1 - excess after / excess before: -200 % is an excess three times as large."""
     assert removal(0.99) == "removes 99% of the excess"
-    assert removal(-2.0, "the flagged channels' excess") == "makes the flagged channels' excess 3.0 times as large"
+    assert removal(-2.0, "the flagged channels' excess") == "adds 200% to the flagged channels' excess"
 
 
 def test_sensitivities_match_the_analytic_derivatives(model, rng):

@@ -18,7 +18,7 @@ from costa.discover.hypotheses import candidate_hypotheses
 from costa.discover.observed import estimate_states
 from costa.discover.partial import Observations, channel_noise, hypothesis_scales
 from costa.discover.partial_pipeline import PartialResult, observations
-from costa.discover.partial_search import discover_round
+from costa.discover.partial_search import discover_round, fit_outcome
 from costa.discover.pipeline import case_tables, run_discovery, starting_model
 from costa.discover.search import DiscoverySettings
 from costa.observe import observe
@@ -50,6 +50,15 @@ def test_channel_noise_is_estimated_where_dense_and_declared_where_sparse():
         ValueError, match="channel 'c3' is not sampled at every step.*declare it in discovery.user_data"
     ):
         channel_noise(y, ("x6", "c3"), {})
+
+
+def test_a_runner_up_without_a_score_says_why():
+    """A candidate whose filter was lost before a closed form held was never fitted; one whose
+    corrected filter loses a cell the uncorrected model's holds has no BIC gain (minus infinity)."""
+    assert fit_outcome(False, 0.0, False).startswith("could not be fitted")
+    lost = fit_outcome(True, -2.0, False)
+    assert lost == "adds 200% to the excess, but its filter is lost on a cell the uncorrected model's holds"
+    assert fit_outcome(True, 0.5, True) == "removes 50% of the excess"
 
 
 def test_paper_liquidus_is_named_from_partial_measurements(default_config):

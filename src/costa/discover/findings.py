@@ -10,7 +10,7 @@ import pandas as pd
 
 from ..variables import MEANING, STATES
 from .partial_pipeline import PartialResult
-from .partial_search import PartialRound
+from .partial_search import PartialRound, fit_outcome
 from .pipeline import DiscoveryResult
 from .search import KEEP_LEVEL, Candidate, Round, removal
 
@@ -410,7 +410,8 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
     if r["alternatives"]:
         lines += ["", "Runners-up:"]
         lines += [
-            f"- `{a['hypothesis']}` {removal(a['excess_removed'])} (BIC gain {a['bic_gain'] or 0:.0f})"
+            f"- `{a['hypothesis']}` {fit_outcome(bool(a['terms']), a['excess_removed'], a['bic_gain'] is not None)}"
+            + ("" if a["bic_gain"] is None else f" (BIC gain {a['bic_gain']:.0f})")
             for a in r["alternatives"]
         ]
     return lines + [""]

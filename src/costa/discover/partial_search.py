@@ -54,7 +54,7 @@ from .partial import (
 from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
 from .search import KEEP_LEVEL, DiscoverySettings, FittedTerms, independent_columns, naming_order, removal, weakest_term
 
-__all__ = ["PartialRound", "discover_partial", "distinct_physics", "separating_channel"]
+__all__ = ["PartialRound", "discover_partial", "distinct_physics", "fit_outcome", "separating_channel"]
 
 log = logging.getLogger(__name__)
 
@@ -135,6 +135,16 @@ class PartialRound:
     @property
     def corrected(self) -> CellModel | None:
         return self.chosen.corrected if self.chosen is not None else None
+
+
+def fit_outcome(fitted: bool, explained: float, scored: bool) -> str:
+    """What a candidate's correction did to the flagged channels' excess, in words, or why it has
+    none: not ``fitted`` (its filter lost on half the cells or more, or no term held), or not
+    ``scored`` (the corrected filter lost a cell that the uncorrected model's holds)."""
+    if not fitted:
+        return "could not be fitted (its filter was lost on half the cells or more, or no term held)"
+    effect = removal(explained)
+    return effect if scored else f"{effect}, but its filter is lost on a cell the uncorrected model's holds"
 
 
 def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
@@ -417,7 +427,9 @@ def discover_round(
         and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion
     ]
     if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
-        best = f"the best, {ranking[0].hypothesis.key}, {removal(ranking[0].explained)}" if ranking else ""
+        top = ranking[0] if ranking else None
+        outcome = top and fit_outcome(bool(top.features), top.explained, bool(np.isfinite(top.bic_gain)))
+        best = f"the best, {top.hypothesis.key}, {outcome}" if top else ""
         verdict = f"channels {flagged} disagree beyond noise, but no candidate explains them" + (
             f": {best}" if best else ""
         )

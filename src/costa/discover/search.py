@@ -408,8 +408,8 @@ def _consequences(h: Hypothesis, reads: Mapping[str, frozenset[str]]) -> set[str
 
 def removal(share: float, excess: str = "the excess") -> str:
     """What a correction does to ``excess`` (the excess over noise it removes, ``share`` of it), in
-    words: a negative share, an excess the correction made larger, reads as how many times as large."""
-    return f"makes {excess} {1 - share:.1f} times as large" if share < 0 else f"removes {share:.0%} of {excess}"
+    words: a negative share is an excess the correction made larger."""
+    return f"adds {-share:.0%} to {excess}" if share < 0 else f"removes {share:.0%} of {excess}"
 
 
 def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:
