@@ -427,12 +427,11 @@ def discover_round(
         and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion
     ]
     if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
-        top = ranking[0] if ranking else None
-        outcome = top and fit_outcome(bool(top.features), top.explained, bool(np.isfinite(top.bic_gain)))
-        best = f"the best, {top.hypothesis.key}, {outcome}" if top else ""
-        verdict = f"channels {flagged} disagree beyond noise, but no candidate explains them" + (
-            f": {best}" if best else ""
-        )
+        verdict = f"channels {flagged} disagree beyond noise, but no candidate explains them"
+        if ranking:
+            top = ranking[0]
+            outcome = fit_outcome(bool(top.features), top.explained, bool(np.isfinite(top.bic_gain)))
+            verdict += f": the best, {top.hypothesis.key}, {outcome}"
         return PartialRound(model, tests, ranking, None, [], True, None, verdict, dispersion)
     x = base.mean[..., :8]
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
