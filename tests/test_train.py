@@ -12,7 +12,17 @@ from costa import seeds
 from costa.config import ConfigError, load_config
 from costa.ensemble import MLPEnsemble, StackedAdam, ensemble_gradients
 from costa.models import load_models, save_instance
-from costa.train import ModelType, TrainingSettings, prune, sparsity, train_ensemble, train_model_type, training_data
+from costa.train import (
+    ModelType,
+    NonFiniteLossError,
+    TrainingData,
+    TrainingSettings,
+    prune,
+    sparsity,
+    train_ensemble,
+    train_model_type,
+    training_data,
+)
 
 SIZES = [13, 20, 20, 20, 20, 8]
 
@@ -223,3 +233,14 @@ def test_compiled_gradients_agree_with_eager():
     torch.testing.assert_close(compiled[0], eager[0], rtol=1e-5, atol=1e-7)
     for a, b in zip(compiled[1] + compiled[2], eager[1] + eager[2], strict=True):
         torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-6)
+
+
+def test_a_planted_infinite_target_stops_training_naming_type_instance_and_epoch():
+    inputs = torch.randn(256, 13, generator=torch.Generator().manual_seed(0))
+    targets = torch.randn(256, 8, generator=torch.Generator().manual_seed(1))
+    targets[17, 3] = float("inf")
+    data = TrainingData(inputs, targets, normalisation=None)
+    settings = TrainingSettings((20, 20), 1e-3, 64, 3, 2, 1e-3, None)
+    model_type = ModelType("costa_sparse", "costa", 1e-4)
+    with pytest.raises(NonFiniteLossError, match=r"'costa_sparse'.*instance\(s\) \[0, 1\].*epoch 1 .*no model is saved"):
+        train_ensemble(data, model_type, settings, generators(2), torch.Generator().manual_seed(2))

@@ -46,6 +46,7 @@ __all__ = [
     "CompileFallbackWarning",
     "FittedType",
     "ModelType",
+    "NonFiniteLossError",
     "Normalisation",
     "TrainingData",
     "TrainingSettings",
@@ -60,8 +61,28 @@ __all__ = [
 TARGETS = ("ddm", "costa")
 
 
+class NonFiniteLossError(RuntimeError):
+    """A training loss turned NaN or infinite: the networks are broken and must not be saved."""
+
+
 class CompileFallbackWarning(RuntimeWarning):
     """``training.compile`` is on but the step cannot be compiled here (no working C++ compiler)."""
+
+
+def vector_width_option() -> dict[str, int]:
+    """Inductor's ``cpp.simdlen`` set to the vector width [bits] of the kernels picked here.
+
+    torch 2.13's compiled-graph cache does not key its entries on the vector ISA that
+    ``ATEN_CPU_CAPABILITY`` picks: a step compiled under AVX-512 (16 floats a vector) and
+    loaded under AVX2 (8) is rebuilt from source that strides by 16 over 8-wide vectors,
+    so half of each fused bias-and-ReLU and bias-gradient kernel is never written and the
+    loss turns NaN within a few epochs.  An explicit ``cpp.simdlen`` is part of the cache
+    key, so each ISA gets its own entries (docs/notes/2026-11-26-avx2-nan.md).
+    """
+    from torch._inductor.cpu_vec_isa import pick_vec_isa
+
+    isa = pick_vec_isa()
+    return {"cpp.simdlen": isa.bit_width()} if isa else {}
 
 
 def compiled_or_eager(fn: Callable) -> Callable:
@@ -75,7 +96,7 @@ def compiled_or_eager(fn: Callable) -> Callable:
     from torch._dynamo.exc import BackendCompilerFailed
     from torch._inductor.exc import CppCompileError, InvalidCxxCompiler
 
-    compiled = torch.compile(fn, dynamic=False)
+    compiled = torch.compile(fn, dynamic=False, options=vector_width_option())
     current = compiled
 
     def call(*args):
@@ -277,6 +298,7 @@ def train_ensemble(
             squared += mse.double() * (stop - start)
         with torch.no_grad():
             penalty = model_type.l1_lambda * ensemble.l1().double()
+        stop_if_not_finite(squared + penalty, model_type, epoch, settings.compile)
         for member in range(ensemble.n_members):
             mse_epoch = float(squared[member]) / n
             rows.append((member, epoch, mse_epoch, float(penalty[member]), mse_epoch + float(penalty[member])))
@@ -287,6 +309,22 @@ def train_ensemble(
     losses = pd.DataFrame(rows, columns=["instance", "epoch", "mse", "l1_penalty", "loss"])
     losses.insert(0, "model_type", model_type.name)
     return ensemble, losses
+
+
+def stop_if_not_finite(loss: torch.Tensor, model_type: ModelType, epoch: int, compiled: bool) -> None:
+    """Raise :class:`NonFiniteLossError` naming the type, the instances and the epoch if
+    any instance's summed epoch loss (E,) is NaN or infinite."""
+    broken = torch.nonzero(~torch.isfinite(loss)).flatten().tolist()
+    if not broken:
+        return
+    cause = (
+        "a non-finite value in the training data or its targets, a learning rate too large for the data"
+        + (", or a miscompiled training step (set training.compile: false to test)" if compiled else "")
+    )
+    raise NonFiniteLossError(
+        f"training {model_type.name!r}: the loss of instance(s) {broken} is not finite at epoch {epoch} "
+        f"({float(loss[broken[0]])}); no model is saved. Likely cause: {cause}."
+    )
 
 
 @torch.no_grad()

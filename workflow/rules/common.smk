@@ -16,6 +16,11 @@ os.environ.update(
 # One BLAS/OpenMP thread per job unless the job sets more (torch oversubscribes a small machine otherwise).
 for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
+# The same CPU kernels for every job, whatever the shell says (config `kernels`):
+# the numbers then do not depend on the CPU (docs/reproducibility.md).
+from costa.kernels import kernel_environment  # noqa: E402
+
+os.environ.update(kernel_environment(config["kernels"]))
 
 
 RESULTS = config["output"]["results"]
