@@ -33,8 +33,10 @@ from pathlib import Path
 import pandas as pd
 from IPython.display import Image, Markdown, display
 
-from costa.paper import paper_blowups, paper_median_error, reference_runs
+from costa.kernels import kernel_provenance
+from costa.paper import beside_the_paper, reference_runs
 from costa.plots.style import model_label
+from costa.summary import all_blown_up, with_interval
 
 pd.set_option("display.precision", 4)
 pd.set_option("display.max_colwidth", 200)
@@ -49,13 +51,6 @@ def show(table: pd.DataFrame) -> None:
     counts = [c for c in table.columns if pd.api.types.is_float_dtype(table[c]) and (table[c].dropna() % 1 == 0).all()]
     table = table.astype({c: "Int64" for c in counts if table[c].notna().any()})
     display(table.style.hide(axis="index").format(precision=4, na_rep="—"))
-
-
-def with_interval(value: float, low: float, high: float, spec: str = ".3g") -> str:
-    """'value [low, high]', or "—" where there is no value (no rollout left to take a median of)."""
-    if pd.isna(value):
-        return "—"
-    return f"{value:{spec}} [{low:{spec}}, {high:{spec}}]"
 
 
 def replicate_spread(model_types: list[str] | None = None) -> pd.DataFrame:
@@ -155,6 +150,10 @@ show(sparsity.pivot_table(index="model_type", columns="layer", values="fraction"
 # ### Accuracy of the rolling forecasts (the paper's Figure 8)
 
 # %%
+summary = pd.read_csv(inputs["summary"])
+coded = summary[summary.definition == "coded"]
+for warning in all_blown_up(coded):
+    display(Markdown(f"**Warning:** {warning}."))
 figure("error_violins")
 
 # %% [markdown]
@@ -179,19 +178,7 @@ figure("rolling_forecast", width=950)
 # approximate; medians it does not show are blank.
 
 # %%
-summary = pd.read_csv(inputs["summary"])
-coded = summary[summary.definition == "coded"]
-table = coded.merge(paper_blowups(), on=["model_type", "window"], how="left").merge(
-    paper_median_error(), on=["model_type", "window"], how="left"
-)
-table["blow-ups"] = table.apply(lambda r: with_interval(r.blowups, r.blowups_low, r.blowups_high, ".0f"), axis=1)
-table["median AN-RFMSE"] = table.apply(lambda r: with_interval(r["median"], r.median_low, r.median_high), axis=1)
-table["model"] = table.model_type.map(model_label)
-show(
-    table[["model", "window", "blow-ups", "paper_blowups", "median AN-RFMSE", "paper_median"]].rename(
-        columns={"paper_blowups": "paper blow-ups", "paper_median": "paper median"}
-    )
-)
+show(beside_the_paper(coded))
 
 # %% [markdown]
 # Three further faithful runs of the authors' settings with other seeds (`docs/model.md` §7)
@@ -454,7 +441,10 @@ display(
         f"- **commit**: `{commit}`\n"
         + "- **packages**: "
         + ", ".join(f"{p} {metadata.version(p)}" for p in packages)
-        + f"\n- **seed**: {config['seed']}, replicates: {config['replicates']}"
+        + f"\n- **seed**: {config['seed']}, replicates: {config['replicates']}\n"
+        + "\n".join(f"- **{key}**: {value}" for key, value in kernel_provenance().items())
+        + "\n\nThe kernels are pinned for every job (config `kernels`), so the numbers above do not depend "
+        "on the CPU (`docs/reproducibility.md`)."
     )
 )
 times = pd.DataFrame(

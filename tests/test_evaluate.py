@@ -20,7 +20,7 @@ from costa.metrics import (
     window_metrics,
 )
 from costa.models import NetworkModel
-from costa.summary import summary_table
+from costa.summary import all_blown_up, summary_table
 from costa.train import ModelType, Normalisation
 
 SCALE = np.array([1.0, 2.0, 4.0, 8.0, 1.0, 1.0, 1.0, 1.0])
@@ -136,6 +136,13 @@ def test_summary_counts_medians_and_intervals():
     assert ddm["median"] == pytest.approx(0.2) and ddm.median_low <= 0.2 <= ddm.median_high
     pbm = summary[summary.model_type == "pbm"].iloc[0]
     assert (pbm.blowups, pbm.interval_unit) == (3, "trajectory")
+
+
+def test_a_type_whose_rollouts_all_blew_up_is_warned_about_and_no_other():
+    summary = summary_table(_metrics({"ddm_dense": [10, 10], "costa_dense": [10, 9], "pbm": [0]}), resamples=50, seed=1)
+    warnings = all_blown_up(summary)
+    assert len(warnings) == 1
+    assert "every one of the 20 rollouts of ddm_dense blew up in the long window" in warnings[0]
 
 
 def _summary(medians: dict, blowups: dict) -> pd.DataFrame:

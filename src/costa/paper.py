@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-__all__ = ["paper_blowups", "paper_median_error", "reference_runs", "reference_short_median"]
+__all__ = ["beside_the_paper", "paper_blowups", "paper_median_error", "reference_runs", "reference_short_median"]
 
 _TYPES = ("ddm_dense", "ddm_sparse", "costa_dense", "costa_sparse", "pbm")
 
@@ -53,3 +53,29 @@ def reference_runs() -> pd.DataFrame:
 def reference_short_median(model: str) -> tuple[float, float]:
     """The range of short-window median AN-RFMSE over the reference runs."""
     return _RUNS_SHORT_MEDIAN["pbm" if model == "pbm" else model.split("_")[0]]
+
+
+def beside_the_paper(coded: pd.DataFrame) -> pd.DataFrame:
+    """A run's summary (coded definition, costa.summary.summary_table) beside the paper's numbers.
+
+    Columns: model, window, rollouts, blow-ups and median AN-RFMSE with their 95 %
+    intervals, and the paper's blow-ups and median (read off its figures; blank where
+    it shows none).
+    """
+    from .plots.style import model_label
+    from .summary import with_interval
+
+    table = coded.merge(paper_blowups(), on=["model_type", "window"], how="left").merge(
+        paper_median_error(), on=["model_type", "window"], how="left"
+    )
+    return pd.DataFrame(
+        {
+            "model": table.model_type.map(model_label),
+            "window": table.window,
+            "rollouts": table.rollouts,
+            "blow-ups": table.apply(lambda r: with_interval(r.blowups, r.blowups_low, r.blowups_high, ".0f"), axis=1),
+            "paper blow-ups": table.paper_blowups,
+            "median AN-RFMSE": table.apply(lambda r: with_interval(r["median"], r.median_low, r.median_high), axis=1),
+            "paper median": table.paper_median,
+        }
+    )

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["bootstrap_groups", "resampling_units", "summary_table"]
+__all__ = ["all_blown_up", "bootstrap_groups", "resampling_units", "summary_table", "with_interval"]
 
 
 def resampling_units(part: pd.DataFrame) -> tuple[str, list[np.ndarray], list[np.ndarray]]:
@@ -74,3 +74,22 @@ def summary_table(
             }
         )
     return pd.DataFrame(rows)
+
+
+def all_blown_up(summary: pd.DataFrame) -> list[str]:
+    """One warning for each model type whose rollouts all blew up in some window of
+    ``summary`` (one definition's rows): its models are broken, not merely poor."""
+    whole = summary[summary["blowups"] == summary["rollouts"]]
+    return [
+        f"every one of the {int(part['rollouts'].iloc[0])} rollouts of {model} blew up in the "
+        f"{', '.join(part['window'])} window(s): its models are probably broken (a non-finite or diverged "
+        f"training; see logs/train_{model}.log), so its numbers below are not a result"
+        for model, part in whole.groupby("model_type", sort=False)
+    ]
+
+
+def with_interval(value: float, low: float, high: float, spec: str = ".3g") -> str:
+    """'value [low, high]', or "—" where there is no value (no rollout left to take a median of)."""
+    if pd.isna(value):
+        return "—"
+    return f"{value:{spec}} [{low:{spec}}, {high:{spec}}]"

@@ -96,13 +96,13 @@ def compiled_or_eager(fn: Callable) -> Callable:
     from torch._dynamo.exc import BackendCompilerFailed
     from torch._inductor.exc import CppCompileError, InvalidCxxCompiler
 
-    compiled = torch.compile(fn, dynamic=False, options=vector_width_option())
-    current = compiled
+    compiled = current = None  # built at the first call: picking the vector ISA needs the compiler too
 
     def call(*args):
-        nonlocal current
+        nonlocal compiled, current
         if current is compiled:
             try:
+                compiled = current = compiled or torch.compile(fn, dynamic=False, options=vector_width_option())
                 return compiled(*args)
             except (BackendCompilerFailed, InvalidCxxCompiler, CppCompileError) as error:
                 inner = getattr(error, "inner_exception", error)
@@ -317,9 +317,8 @@ def stop_if_not_finite(loss: torch.Tensor, model_type: ModelType, epoch: int, co
     broken = torch.nonzero(~torch.isfinite(loss)).flatten().tolist()
     if not broken:
         return
-    cause = (
-        "a non-finite value in the training data or its targets, a learning rate too large for the data"
-        + (", or a miscompiled training step (set training.compile: false to test)" if compiled else "")
+    cause = "a non-finite value in the training data or its targets, a learning rate too large for the data" + (
+        ", or a miscompiled training step (set training.compile: false to test)" if compiled else ""
     )
     raise NonFiniteLossError(
         f"training {model_type.name!r}: the loss of instance(s) {broken} is not finite at epoch {epoch} "

@@ -259,7 +259,7 @@ def job_benchmarks(rep):
 
 
 def all_targets():
-    targets = [f"{REPORT}/report.html", out("cell_constants.csv")]
+    targets = [f"{REPORT}/report.html", out("results.md"), out("cell_constants.csv")]
     targets += expand(out("discovery/{case}/discovery.png"), case=DISCOVERY_CASES)
     if SENSOR_SETS != ["full"] and SHIPPED_CASES:
         targets.append(out("discovery/sensors.csv"))

@@ -46,3 +46,34 @@ rule report:
         repository=lambda wildcards, input: str(Path(input.notebook).parents[1]),
     script:
         "../scripts/render_report.py"
+
+
+rule results_page:
+    """This run's result tables as Markdown: docs/results.md is this page from the default run."""
+    input:
+        summary=out("eval/summary.csv"),
+        discovery=[out("discovery/summary.csv")] if DISCOVERY_CASES else [],
+        code=package_files("paper.py", "summary.py", "kernels.py"),
+    output:
+        page=out("results.md"),
+    log:
+        out("logs/results_page.log"),
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=config,
+        discovery_columns=[
+            "case",
+            "hidden",
+            "named",
+            "correct",
+            "closed_form",
+            "error_before",
+            "error_after",
+            "error_costa_reference",
+            "noise_floor",
+            "shrink_above_noise_floor",
+        ],
+    script:
+        "../scripts/results_page.py"
