@@ -178,9 +178,9 @@ def findings(
     if named:
         outcome = "found"
     elif unidentified:
-        outcome = "not identifiable with these measurements"
+        outcome = "not identifiable"
     elif first["flagged"]:
-        outcome = "disagreement without an explanation"
+        outcome = "unexplained"
     else:
         outcome = "no effect"
     extra: dict[str, Any] = {}
@@ -391,9 +391,8 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
     lines += ["", f"**Verdict**: {r['verdict']}.", ""]
     correction = r.get("correction")
     if correction:
-        title = (
-            "Named" if r["named"] else "Best-fitting explanation (not named: not identifiable with these measurements)"
-        )
+        reason = "not identifiable" if not r["identifiable"] else "unexplained"
+        title = "Named" if r["named"] else f"Best-fitting correction (applied, not named: {reason})"
         lines += [f"**{title}**: `{correction['hypothesis']}`: {correction['description']}", "",
                   f"Correction [{correction['unit']}]: `{correction['closed_form']}`", ""]  # fmt: skip
         lines += _coefficient_lines(correction)

@@ -427,7 +427,7 @@ def discover_round(
         and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion
     ]
     if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
-        verdict = f"channels {flagged} disagree beyond noise, but no candidate explains them"
+        verdict = f"unexplained: channels {flagged} disagree beyond noise, but no candidate explains them"
         if ranking:
             top = ranking[0]
             outcome = fit_outcome(bool(top.features), top.explained, bool(np.isfinite(top.bic_gain)))
@@ -444,11 +444,11 @@ def discover_round(
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
     if different:
         keys = ", ".join(c.hypothesis.key for c in [chosen, *different])
-        what = f"not identifiable with these measurements: {keys} explain the measured channels equally well"
+        what = f"not identifiable: {keys} explain the measured channels equally well"
         what += f"; measuring {separated} would separate them" if separated else ""
     elif unexplained:
         what = (
-            f"not named: the best correction, {chosen.hypothesis.key}, leaves {unexplained} disagreeing beyond "
+            f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {unexplained} disagreeing beyond "
             "noise, so what is missing may be an explanation that did not fit here or more than one effect"
         )
     else:

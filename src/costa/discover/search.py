@@ -452,8 +452,8 @@ def discover_round(
     keep = [h for share, h in screened if share >= max(cut, settings.min_screen)]
     if not keep:
         verdict = (
-            f"equations {[STATES[i] for i in flagged]} disagree beyond noise, but no hypothesis could remove "
-            f"{settings.min_screen:.0%} of the excess residual even with a free value in every window"
+            f"unexplained: equations {[STATES[i] for i in flagged]} disagree beyond noise, but no hypothesis "
+            f"could remove {settings.min_screen:.0%} of the excess residual even with a free value in every window"
         )
         return Round(model, tests, _where(problem, model, z0, flagged), [], None, [], verdict, rich, window)
     seed = rng.integers(2**63)
@@ -473,8 +473,8 @@ def discover_round(
     if not good or good[0].explained < settings.min_explained or good[0].bic_gain < settings.min_gain:
         top = ranking[0]
         verdict = (
-            f"equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate explains it: the best, "
-            f"{top.hypothesis.key}, {removal(top.explained, 'the excess residual')}"
+            f"unexplained: equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate "
+            f"explains it: the best, {top.hypothesis.key}, {removal(top.explained, 'the excess residual')}"
         )
         return Round(model, tests, where, ranking, None, [], verdict, rich, window)
     with np.errstate(all="ignore"):

@@ -67,7 +67,7 @@ def _verdict(f) -> str:
     if f["outcome"].startswith("not identifiable"):
         return "not identifiable"
     if not accepted:
-        return "nothing, correctly" if not flagged else "disagreement without an explanation (false alarm)"
+        return "no effect, correctly" if not flagged else "unexplained (false alarm)"
     return "unexplained" if flagged else "not detected"
 
 
