@@ -257,7 +257,11 @@ KNOWN = {
 }
 
 
-@pytest.mark.parametrize("case", list(CASES))
+# the paper's case and the null case run by default; the other seven in the integration tier
+@pytest.mark.parametrize(
+    "case",
+    [c if c in ("paper_liquidus", "no_effect") else pytest.param(c, marks=pytest.mark.integration) for c in CASES],
+)
 def test_shipped_case_at_reduced_size(default_config, case):
     found = _run(_config(default_config, REDUCED), case)
     _check(found, CASES[case])

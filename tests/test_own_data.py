@@ -106,6 +106,7 @@ def test_the_example_data_are_what_the_documented_script_makes(tmp_path):
     assert load_trajectories(tmp_path / "cell.csv").shape == (6 * 400, 16)
 
 
+@pytest.mark.integration
 def test_the_worked_example_runs_from_the_readme_command(tmp_path):
     """`snakemake --cores 2 results/own-cell/discovery/cell/findings.json --configfile examples/own-cell/config.yaml`."""
     from test_workflow import snakemake

@@ -61,6 +61,7 @@ def test_a_runner_up_without_a_score_says_why():
     assert fit_outcome(True, 0.5, True) == "removes 50% of the excess"
 
 
+@pytest.mark.integration
 def test_paper_liquidus_is_named_from_partial_measurements(default_config):
     """No ledge, no masses measured: bath and wall temperature, metal, cell voltage and composition.
     The ablated PBM's missing liquidus law is named, its closed form recovered, the gap closed."""
@@ -99,6 +100,7 @@ def test_no_effect_under_partial_measurements_names_nothing(default_config):
     assert result.corrected is start
 
 
+@pytest.mark.integration
 def test_a_case_built_to_be_unidentifiable_names_nothing_and_says_what_would_separate():
     """Cryolite turning into metal, with the metal mass unmeasured: the measured channels (bath and
     wall temperature, cell voltage, composition) see cryolite lost and nothing else, and the metal
@@ -179,6 +181,7 @@ def test_an_input_that_acts_now_and_then_is_visible_to_the_screen():
     assert scale == pytest.approx(10.0 / (90.0 * np.sqrt(1 / 10)), rel=0.02)
 
 
+@pytest.mark.integration
 def test_a_pot_lines_first_state_is_searched_where_one_voltage_cannot_place_it(default_config):
     """Plant sensors on a cell with nothing hidden: the cell voltage every step, the bath temperature
     hourly, AlF3 and metal every 8 h.  A filter started at the nominal bath loses some cells within
@@ -201,6 +204,7 @@ def test_a_pot_lines_first_state_is_searched_where_one_voltage_cannot_place_it(d
     assert partial.with_start(model).start is None  # the composition is sampled: the prior places the masses
 
 
+@pytest.mark.integration
 def test_the_start_search_spans_the_first_hand_samples_so_a_right_models_filter_holds(default_config):
     """The cells of top_heat_loss under plant sensors, filtered with the model that made them: from
     a start searched over the first hour (the voltage alone), cell 0's filter collapsed onto a wrong
@@ -216,6 +220,7 @@ def test_the_start_search_spans_the_first_hand_samples_so_a_right_models_filter_
     assert np.all(result.log_likelihood > 0), result.log_likelihood
 
 
+@pytest.mark.integration
 def test_each_model_is_scored_from_the_start_it_searches_itself(default_config):
     """The liquidus case under plant sensors: the start searched under the ablated PBM (liquidus
     fixed at 968 degC) places cell 1's bath where that model fits the first hours, and the true
@@ -233,6 +238,7 @@ def test_each_model_is_scored_from_the_start_it_searches_itself(default_config):
     assert scored["own"].min() > 6e4 and scored["ablated"].min() < -1e6, scored  # cell 1: -3.7e6
 
 
+@pytest.mark.integration
 def test_the_gaps_rollouts_start_from_the_first_samples_only(default_config):
     """A rollout scored on held-out measurements starts from what the first ``start_steps`` samples
     say: the first state is searched on them, not on the hours after, which the rollout is scored on
@@ -356,6 +362,7 @@ def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves(
     assert _dispersion([]) == 1.0
 
 
+@pytest.mark.integration
 def test_refined_coefficients_recover_a_hidden_flow_whose_terms_span_decades(default_config):
     """The settling alumina u1 (0.3 - 0.015 superheat) [kg/s], refined on three full-length partial
     records from the regression's poor start with eight terms it lacks, whose prior widths span ten

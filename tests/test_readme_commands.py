@@ -232,6 +232,13 @@ def check_sensors_dry_run(command, smoke_run, tmp_path):
     assert "collect_sensors" in result.stdout and "results/smoke/discovery/sensors.csv" in result.stdout
 
 
+def check_nine_cases_dry_run(command, smoke_run, tmp_path):
+    result = run_command(smoke_run, f"{on_smoke(command)} --dry-run")
+    assert result.returncode == 0, result.stderr[-4000:]
+    for case in ("top_heat_loss", "tapping_shortfall", "no_effect"):
+        assert f"results/smoke/discovery/{case}/findings.json" in result.stdout, case
+
+
 def check_beyond_dry_run(command, smoke_run, tmp_path):
     result = run_command(smoke_run, f"{on_smoke(command)} --dry-run")
     assert result.returncode == 0, result.stderr[-4000:]
@@ -293,6 +300,7 @@ RUN_CHECKS = {
     "snakemake --cores 2 results/discovery/summary.csv": check_target_is_built,
     "snakemake --cores 2 results/mycell/discovery/cell/findings.json --configfile my.yaml": check_own_data_template,
     "snakemake --cores 2 results/discovery/sensors.csv --configfile config/sensors.yaml": check_sensors_dry_run,
+    "snakemake --cores 2 results/discovery/summary.csv --configfile config/discovery.yaml": check_nine_cases_dry_run,
     "snakemake --cores 2 --configfile config/beyond.yaml": check_beyond_dry_run,
     "snakemake --cores 2 results/peers/summary.csv": check_peers_dry_run,
     'python benchmarks/bound_variants.py --reps "" replicates/r1/': check_bound_variants,

@@ -14,7 +14,10 @@ import signal
 import subprocess
 import time
 
+import pytest
 from conftest import SMOKE_COMMAND, on_smoke, repository_copy, result_hashes, run_command, shell_environment
+
+pytestmark = pytest.mark.integration
 
 #: The README's commands after a crash.
 UNLOCK, RESUME = "snakemake --cores 2 --unlock", "snakemake --cores 2 --rerun-incomplete"

@@ -14,6 +14,7 @@ from conftest import SMOKE_COMMAND, TIMINGS, repository_copy, result_hashes, run
 from local_slurm import local_slurm, missing_prerequisites
 
 pytestmark = [
+    pytest.mark.integration,
     pytest.mark.slurm,
     pytest.mark.skipif(missing_prerequisites() is not None, reason=f"no local SLURM: {missing_prerequisites()}"),
 ]

@@ -242,5 +242,7 @@ def test_a_planted_infinite_target_stops_training_naming_type_instance_and_epoch
     data = TrainingData(inputs, targets, normalisation=None)
     settings = TrainingSettings((20, 20), 1e-3, 64, 3, 2, 1e-3, None)
     model_type = ModelType("costa_sparse", "costa", 1e-4)
-    with pytest.raises(NonFiniteLossError, match=r"'costa_sparse'.*instance\(s\) \[0, 1\].*epoch 1 .*no model is saved"):
+    with pytest.raises(
+        NonFiniteLossError, match=r"'costa_sparse'.*instance\(s\) \[0, 1\].*epoch 1 .*no model is saved"
+    ):
         train_ensemble(data, model_type, settings, generators(2), torch.Generator().manual_seed(2))

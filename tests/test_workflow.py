@@ -8,6 +8,7 @@ import sys
 
 import nbformat
 import pandas as pd
+import pytest
 from conftest import REPOSITORY, snakemake
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake", "--snakefile", str(REPOSITORY / "Snakefile")]
@@ -47,6 +48,7 @@ def test_report_is_rendered_without_errors(smoke_run):
     assert not re.search(r">[^<]*\bnan\b", html) and ">—<" in html  # a missing value is a dash
 
 
+@pytest.mark.integration
 def test_two_replicates_are_aggregated_plotted_and_reported(tmp_path):
     two = tmp_path / "two_replicates.yaml"
     two.write_text("replicates: 2\ndiscovery: {cases: []}\n")
@@ -91,6 +93,7 @@ def test_snakemake_files_are_formatted():
     assert result.returncode == 0, result.stderr
 
 
+@pytest.mark.integration
 def test_beyond_config_adds_the_discovered_model_the_noise_study_and_the_stable_variant(tmp_path):
     """config/beyond.yaml's pieces on the smoke sizes: new types, the discovered model's rows, noise levels."""
     tiny = tmp_path / "tiny_beyond.yaml"

@@ -14,6 +14,7 @@ rule train:
         out("{rep}logs/train_{model_type}.log"),
     benchmark:
         out("{rep}benchmarks/train_{model_type}.tsv")
+    priority: 10  # the longest chain (training, then rollouts): start it first
     conda:
         ENV
     threads: 1
