@@ -34,7 +34,7 @@ from costa.data import arrays
 from costa.datasets import simulate_split
 from costa.ensemble import MLPEnsemble, StackedAdam, ensemble_gradients
 from costa.physics import model_from_config
-from costa.train import TrainingSettings, training_data
+from costa.train import TrainingSettings, compiled_or_eager, training_data
 
 
 def time_batches(step, inputs, targets, batch_size: int, batches: int) -> float:
@@ -80,7 +80,7 @@ def main() -> None:
         ensemble = MLPEnsemble.kaiming(settings.sizes(), generators)
         adam = StackedAdam(ensemble, settings.learning_rate)
         weights, biases = [w.detach() for w in ensemble.weights], [b.detach() for b in ensemble.biases]
-        gradients = torch.compile(ensemble_gradients, dynamic=False) if compiled else ensemble_gradients
+        gradients = compiled_or_eager(ensemble_gradients) if compiled else ensemble_gradients
 
         def step(z, y):
             _, weight_grads, bias_grads = gradients(z, y, weights, biases, l1_lambda)
