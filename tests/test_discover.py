@@ -11,20 +11,22 @@ from conftest import random_operating_points
 
 from costa.data import TrajectoryDataError, to_table
 from costa.discover import CASES, DiscoverySettings, HiddenEffectCase, add_noise, discover
-from costa.discover.findings import findings, findings_markdown
-from costa.discover.hypotheses import candidate_hypotheses
-from costa.discover.pipeline import case_tables, run_discovery, split_held_out, starting_model
-from costa.discover.regression import (
+from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.naming import naming_order, removal
+from costa.discover.core.noise import estimate_noise
+from costa.discover.core.regression import (
     GramSystem,
     coefficient_samples,
     resample_weights,
     selection_frequency,
     stepwise,
 )  # fmt: skip
-from costa.discover.search import Candidate, naming_order, removal
+from costa.discover.findings import findings, findings_markdown
+from costa.discover.pipeline import case_tables, run_discovery, split_held_out, starting_model
+from costa.discover.search import Candidate
 from costa.discover.truth import TRUTHS
 from costa.discover.unshipped import UNSHIPPED
-from costa.discover.weak_form import WeakForm, equation_tests, estimate_noise
+from costa.discover.weak_form import WeakForm, equation_tests
 from costa.physics import PART_ORDER, InputCorrection, ablated_model
 from costa.simulate import simulate_set
 

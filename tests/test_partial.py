@@ -12,15 +12,15 @@ import pytest
 
 from costa.config import load_config
 from costa.discover.cases import CASES
+from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.settings import DiscoverySettings
 from costa.discover.estimator import innovation_tests
 from costa.discover.findings import findings, findings_markdown
-from costa.discover.hypotheses import candidate_hypotheses
 from costa.discover.observed import estimate_states
 from costa.discover.partial import Observations, channel_noise, hypothesis_scales
 from costa.discover.partial_pipeline import PartialResult, observations
 from costa.discover.partial_search import discover_round, fit_outcome
 from costa.discover.pipeline import case_tables, run_discovery, starting_model
-from costa.discover.search import DiscoverySettings
 from costa.observe import observe
 from costa.physics import true_model
 from costa.plots import plot_discovery

@@ -1,6 +1,7 @@
 """Discovery of missing physics: where a model and measured data disagree, what is missing, and a fix."""
 
 from .cases import CASES, HiddenEffectCase, add_noise
-from .search import DiscoverySettings, Round, discover
+from .core.settings import DiscoverySettings
+from .search import Round, discover
 
 __all__ = ["CASES", "DiscoverySettings", "HiddenEffectCase", "Round", "add_noise", "discover"]

@@ -9,10 +9,12 @@ import numpy as np
 import pandas as pd
 
 from ..variables import MEANING, STATES
+from .core.fitted_terms import KEEP_LEVEL
+from .core.naming import removal
 from .partial_pipeline import PartialResult
 from .partial_search import PartialRound, fit_outcome
 from .pipeline import DiscoveryResult
-from .search import KEEP_LEVEL, Candidate, Round, removal
+from .search import Candidate, Round
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)

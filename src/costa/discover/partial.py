@@ -27,11 +27,11 @@ import numpy as np
 from ..integrate import rk4_step
 from ..observe import observe
 from ..physics import CellModel
+from .core.hypotheses import Hypothesis
+from .core.library import Feature
+from .core.noise import estimate_noise
 from .estimator import Smoothed, StateSpaceModel, smooth
-from .hypotheses import Hypothesis
-from .library import Feature
 from .observed import NOMINAL_STATE, PROCESS_STD, SETTLE_S, prior, searched_start, start_is_searched
-from .weak_form import estimate_noise
 
 __all__ = [
     "Observations",

@@ -20,11 +20,11 @@ import pandas as pd
 from ..data import TrajectoryDataError, measured_trajectories
 from ..metrics import EvaluationSettings
 from ..physics import CellModel
+from .core.settings import DiscoverySettings
 from .gap import measured_gap, measured_noise_floor
 from .observed import START_SEARCH_S, start_is_searched
 from .partial import Observations, channel_noise
 from .partial_search import PartialRound, discover_partial
-from .search import DiscoverySettings
 
 __all__ = ["PartialResult", "observations", "run_partial_discovery"]
 

@@ -10,9 +10,9 @@ One round on the current model:
    (:func:`distinct_physics`);
 3. each of those is smoothed on all trajectories (one whose filter is lost on half of
    them or more goes no further), its delta(t) regressed on the physical
-   terms (:mod:`.library`) evaluated at the smoothed states, window by window, with one
+   terms (:mod:`.core.library`) evaluated at the smoothed states, window by window, with one
    bootstrap over blocks of trajectories for selection and intervals (a term is kept
-   only if its :data:`.search.KEEP_LEVEL` interval excludes zero), and the corrected
+   only if its :data:`.core.fitted_terms.KEEP_LEVEL` interval excludes zero), and the corrected
    model scored by the BIC gain of its own likelihood of the measured channels, as the
    full-data route scores a correction by its exact residual;
 4. corrections within ``equivalence`` BIC of the best explain the measured channels
@@ -38,9 +38,20 @@ import numpy as np
 from ..observe import observe
 from ..physics import CellModel
 from ..variables import CHANNELS
+from .core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
+from .core.hypotheses import Hypothesis, candidate_hypotheses
+from .core.library import FIRST_ORDER, FLOW_INPUTS, Feature
+from .core.naming import naming_order, removal
+from .core.regression import (
+    GramSystem,
+    coefficient_samples,
+    independent_columns,
+    resample_weights,
+    selection_frequency,
+    solve_subset,
+)
+from .core.settings import DiscoverySettings
 from .estimator import ChannelTest, Smoothed, innovation_tests
-from .hypotheses import Hypothesis, candidate_hypotheses
-from .library import FIRST_ORDER, FLOW_INPUTS, Feature
 from .observed import estimate_states
 from .partial import (
     HypothesisScore,
@@ -51,8 +62,6 @@ from .partial import (
     score_hypotheses,
     smooth_hypothesis,
 )
-from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
-from .search import KEEP_LEVEL, DiscoverySettings, FittedTerms, independent_columns, naming_order, removal, weakest_term
 
 __all__ = ["PartialRound", "discover_partial", "distinct_physics", "fit_outcome", "separating_channel"]
 
@@ -230,7 +239,7 @@ def _closed_form(
     while (weakest := weakest_term(samples := coefficient_samples(system, terms, weights), KEEP_LEVEL)) is not None:
         terms.pop(weakest)
     inclusion_by_name = {f.name: float(p) for f, p in zip(library, inclusion, strict=True) if p > 0}
-    return [library[i] for i in terms], _solve(G, b, terms), samples, inclusion_by_name
+    return [library[i] for i in terms], solve_subset(G, b, terms), samples, inclusion_by_name
 
 
 def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: Smoothed, rich: bool, rng):
@@ -238,7 +247,7 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     (:func:`.partial.refine_coefficients`), with samples of their posterior in place of the bootstrap's.
 
     Beside the selected terms, the library's flow inputs (the feed and tapping, one-step doses)
-    and its first-order terms (:data:`.library.FIRST_ORDER`) are refined: a delta proportional to
+    and its first-order terms (:data:`.core.library.FIRST_ORDER`) are refined: a delta proportional to
     a dose is a train of spikes that the smoothed random walk spreads out, so the regression
     cannot see it, but the measured channels can; and where the regression on a delta smoothed
     from sparse samples picked a proxy (the superheat for a rate that rises with the temperature
@@ -298,7 +307,7 @@ def distinct_physics(
     whose fits would be the same fit.  Not hypotheses that differ by a factor that varies with the
     state (the ACD, the bath's conductivity and the bubbles all change the voltage, but in
     proportions that vary with the line current and the composition): their closed forms differ.
-    The one kept is the one :func:`.search.naming_order` names first; the order of the groups is
+    The one kept is the one :func:`.core.naming.naming_order` names first; the order of the groups is
     that of their best member."""
     with np.errstate(all="ignore"):
         base = model.rhs(x, u)

@@ -19,11 +19,12 @@ from ..sensors import measure, sensor_sets_from_config
 from ..simulate import SimulationSettings, simulate_set
 from ..variables import INPUTS
 from .cases import HiddenEffectCase
+from .core.noise import estimate_noise
+from .core.settings import DiscoverySettings
 from .gap import gap_tables, noise_floor
 from .partial_pipeline import PartialResult, run_partial_discovery
-from .search import DiscoverySettings, Round, discover
+from .search import Round, discover
 from .unshipped import find_case
-from .weak_form import estimate_noise
 
 __all__ = [
     "DiscoveryData",

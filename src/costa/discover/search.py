@@ -4,9 +4,9 @@ One round:
 
 1. residuals of the current model in weak form, and a chi-square test per equation
    against the noise (:mod:`.weak_form`); nothing flagged -> stop, nothing invented;
-2. every hypothesis (:mod:`.hypotheses`) is screened by how much of the residual a
+2. every hypothesis (:mod:`.core.hypotheses`) is screened by how much of the residual a
    free delta(t) along its sensitivity explains; the promising ones get a sparse
-   closed form from the term library (:mod:`.library`, :mod:`.regression`): the terms
+   closed form from the term library (:mod:`.core.library`, :mod:`.core.regression`): the terms
    a bootstrap over blocks of trajectories of the forward selection picks in at least
    half the resamples, refined by Gauss-Newton on the exact residual (a wrong liquidus
    temperature enters the energy balances squared); a term whose 99 % interval from the
@@ -27,80 +27,37 @@ One round:
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.stats import spearmanr
 
-from ..physics import PART_ORDER, PROPERTIES, CellModel, CellVariables
-from ..variables import INPUTS, STATES
-from .hypotheses import PREFERENCE, Hypothesis, candidate_hypotheses
-from .library import Feature
-from .regression import GramSystem, _solve, coefficient_samples, resample_weights, selection_frequency
-from .weak_form import EquationTest, WeakForm, equation_tests, estimate_noise
+from ..physics import CellModel, CellVariables
+from ..variables import STATES
+from .core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
+from .core.hypotheses import Hypothesis, candidate_hypotheses
+from .core.library import Feature
+from .core.naming import naming_order, removal
+from .core.noise import estimate_noise
+from .core.regression import (
+    GramSystem,
+    coefficient_samples,
+    independent_columns,
+    resample_weights,
+    selection_frequency,
+    solve_subset,
+)
+from .core.settings import DiscoverySettings
+from .weak_form import EquationTest, WeakForm, equation_tests
 
-__all__ = [
-    "KEEP_LEVEL", "Candidate", "DiscoverySettings", "FittedTerms", "Round", "discover", "independent_columns", "naming_order",
-    "percentile_intervals", "removal", "weakest_term",
-]  # fmt: skip
+__all__ = ["Candidate", "Round", "discover"]
 
-#: a term is kept only if its bootstrap interval at this level excludes zero (the findings
-#: report it and the 95 % interval, which lies inside it)
-KEEP_LEVEL = 0.99
 #: the relative change a property or an input's gain may take in a window's estimate: beyond
 #: it, it is not a correction
 RELATIVE_RANGE = (-0.5, 1.0)
 #: the kinds whose delta is a relative change
 RELATIVE = ("property", "input")
-
-
-@dataclass(frozen=True)
-class DiscoverySettings:
-    """How discovery decides; the same for every data set.  The config sets the window, the
-    test thresholds, the term and gain limits, the rounds, the bootstrap and the seed
-    (``discovery.*`` in the schema); the rest are fixed here."""
-
-    window: int = 64  # steps per weak-form window
-    window_scales: tuple[int, ...] = (1, 4, 16)  # longer windows, tried in turn when nothing disagrees
-    z_threshold: float = 6.0  # an equation disagrees if its chi-square excess is this many standard errors ...
-    min_excess: float = 0.1  # ... and at least this share of the noise variance
-    max_terms: int = 8  # terms in a closed form
-    min_gain: float = 10.0  # BIC gain a term (and a correction) must bring
-    min_explained: float = 0.5  # share of the excess residual a correction must remove
-    screen_keep: int = 8  # hypotheses that get a closed-form fit after screening (plus ties)
-    min_screen: float = 0.05  # ... if a free delta along them explains at least this share
-    refine_iterations: int = 8  # Gauss-Newton iterations
-    bootstrap: int = 200  # resamples that select each candidate's terms and give their intervals
-    blocks_per_trajectory: int = 4  # bootstrap groups: each trajectory cut into this many blocks
-    max_rounds: int = 3
-    noise_draws: int = 8  # Monte Carlo draws for the residual's noise scale
-    equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
-    new_mechanism_margin: float = 0.05  # a new effect must gain this share more BIC than refining a named one
-    screen_steps: int = (
-        40_000  # partial measurements: every hypothesis is scored first on trajectories of this many steps in all
-    )
-    partial_candidates: int = 4  # ... the best so many get a closed form, fitted and scored on all trajectories
-    # ... random-walk steps of a hypothesis' delta, in noise stds per window (0: a constant delta)
-    walks: tuple[float, ...] = (0.0, 0.3, 3.0)
-    seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
-
-
-class FittedTerms:
-    """What a fitted closed form offers to read: ``features``, ``coefficients`` and bootstrap
-    ``samples`` (resamples, terms) give the formula and each term's interval."""
-
-    features: list[Feature]
-    coefficients: np.ndarray
-    samples: np.ndarray | None
-
-    @property
-    def formula(self) -> str:
-        return Hypothesis.formula(self.features, self.coefficients)
-
-    def intervals(self, level: float) -> list[tuple[float, float]]:
-        """Each term's bootstrap interval at ``level`` (a percentile interval of ``samples``)."""
-        return percentile_intervals(self.samples, level)
 
 
 @dataclass
@@ -267,17 +224,6 @@ def _explain(problem: _Problem, h: Hypothesis, model: CellModel, measured, featu
     return system, kept
 
 
-def independent_columns(columns: np.ndarray, tolerance: float = 1e-8) -> list[int]:
-    """Indices of columns that are not zero and not (nearly) a multiple of an earlier one."""
-    norms = np.linalg.norm(columns, axis=0)
-    kept: list[int] = []
-    for j in np.flatnonzero(norms > 0):
-        unit = columns[:, j] / norms[j]
-        if all(abs(unit @ columns[:, i] / norms[i]) < 1 - tolerance for i in kept):
-            kept.append(int(j))
-    return kept
-
-
 def _gauss_newton(problem: _Problem, h: Hypothesis, model: CellModel, features: list[Feature], xi, iterations: int):
     """Stage 3: the selected terms' coefficients minimising the exact residual."""
     xi = np.array(xi, dtype=float)
@@ -312,7 +258,7 @@ def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: Discovery
     G, b, _, _ = system.total()
     refined = None
     while True:
-        centre = _solve(G, b, terms)
+        centre = solve_subset(G, b, terms)
         spread = coefficient_samples(system, terms, weights) - centre  # resampled around the full-data fit
         weakest = weakest_term(spread + (centre if refined is None else refined), KEEP_LEVEL)
         if weakest is not None:
@@ -329,25 +275,6 @@ def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: Discovery
         inclusion={n: float(p) for n, p in zip(names, inclusion, strict=True) if p > 0}, samples=spread + refined,
     )  # fmt: skip
     return candidate
-
-
-def percentile_intervals(samples: np.ndarray, level: float) -> list[tuple[float, float]]:
-    """Each column's (resamples x terms) percentile interval at ``level``."""
-    low, high = np.quantile(samples, [(1 - level) / 2, (1 + level) / 2], axis=0)
-    return [(float(lo), float(hi)) for lo, hi in zip(low, high, strict=True)]
-
-
-def weakest_term(samples: np.ndarray, level: float) -> int | None:
-    """The term (column of ``samples``, resamples x terms) whose ``level`` interval covers zero
-    with the most resamples on the other side of zero from the median; None if no interval does."""
-    if not samples.shape[1]:
-        return None
-    low, high = np.quantile(samples, [(1 - level) / 2, (1 + level) / 2], axis=0)
-    covers = (low <= 0) & (high >= 0)
-    if not covers.any():
-        return None
-    across = np.mean(np.sign(samples) != np.sign(np.median(samples, axis=0)), axis=0)
-    return int(np.argmax(np.where(covers, across, -1.0)))
 
 
 def _score(
@@ -387,46 +314,6 @@ def _where(
         correlations = [(name, float(spearmanr(values, residual).statistic)) for name, values in means.items()]
         where[STATES[i]] = sorted(correlations, key=lambda item: -abs(item[1]))[:4]
     return where
-
-
-def _consequences(h: Hypothesis, reads: Mapping[str, frozenset[str]]) -> set[str]:
-    """The parts computed from what ``h`` corrects, directly or through other parts: from a
-    part, from an input, or from the constants a property rescales.  ``reads``: what each part
-    reads (:meth:`CellModel.reads`).  A flow added to a balance is computed from nothing."""
-    if h.kind == "property":
-        sources = set(PROPERTIES[h.target].exponents)
-    elif h.kind in ("part", "input"):
-        sources = {h.target}
-    else:
-        return set()
-    computed: set[str] = set()
-    for name in PART_ORDER:  # the computation order: one pass follows every chain
-        if reads[name] & (sources | computed):
-            computed.add(name)
-    return computed
-
-
-def removal(share: float, excess: str = "the excess") -> str:
-    """What a correction does to ``excess`` (the excess over noise it removes, ``share`` of it), in
-    words: a negative share is an excess the correction made larger."""
-    return f"adds {-share:.0%} to {excess}" if share < 0 else f"removes {share:.0%} of {excess}"
-
-
-def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:
-    """Equally good explanations (items with a ``hypothesis``) in the order they are named: one
-    refining an effect named in an earlier round; then the cause before its consequences (a part
-    computed from another explanation's part, input or property comes after it); then fewest
-    terms (``terms(item)``); then an input before an added flow, a transfer, a part and a
-    property; then the earliest computed part (the order listed, for the other kinds)."""
-    downstream = set().union(*(_consequences(item.hypothesis, reads) for item in items))
-
-    def key(item) -> tuple:
-        h = item.hypothesis
-        order = {"part": PART_ORDER, "property": tuple(PROPERTIES), "input": INPUTS}.get(h.kind, (h.target,))
-        consequence = h.kind == "part" and h.target in downstream
-        return (h.key not in named, consequence, terms(item), PREFERENCE[h.kind], order.index(h.target))
-
-    return sorted(items, key=key)
 
 
 def discover_round(

@@ -5,7 +5,7 @@ PySINDy's STLSQ (optionally inside its bagging ``EnsembleOptimizer``) selects a 
 sum of library terms per balance, each term a flow into the balance (kg/s or W) and
 multiplied by the balance's rate per flow (1, alpha/m, beta/x1 or k17), so that the
 coefficients are in physical units and the correction is a flow like ours.
-The library (:func:`costa.discover.library.feature_library`, the flow library our
+The library (:func:`costa.discover.core.library.feature_library`, the flow library our
 discovery starts from) is evaluated once to a matrix and handed to the optimizer, so
 that the comparison is about the method, not the library.  Features and targets are
 scaled by their standard deviations before the regression, so that one threshold
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import pysindy as ps
 
-from ..discover.hypotheses import Hypothesis
-from ..discover.library import Feature, evaluate, feature_library
+from ..discover.core.hypotheses import Hypothesis
+from ..discover.core.library import Feature, evaluate, feature_library
 from ..physics import BALANCES, BalanceTerm, CellModel, CellVariables
 from ..variables import STATES
 

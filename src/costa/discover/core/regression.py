@@ -19,7 +19,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Fit", "GramSystem", "coefficient_samples", "resample_weights", "selection_frequency", "stepwise"]
+__all__ = [
+    "Fit",
+    "GramSystem",
+    "coefficient_samples",
+    "independent_columns",
+    "resample_weights",
+    "selection_frequency",
+    "solve_subset",
+    "stepwise",
+]
 
 
 @dataclass(frozen=True)
@@ -77,7 +86,7 @@ class Fit:
         return 1 - self.rss / self.rss_baseline if self.rss_baseline > 0 else 0.0
 
 
-def _solve(G: np.ndarray, b: np.ndarray, subset: Sequence[int]) -> np.ndarray:
+def solve_subset(G: np.ndarray, b: np.ndarray, subset: Sequence[int]) -> np.ndarray:
     """Least-squares coefficients of a subset of terms from the normal equations (columns scaled)."""
     index = list(subset)
     if not index:
@@ -136,7 +145,7 @@ def stepwise(
         selected.append(best)
         explained += gains[best]
         current = candidate
-    coefficients = _solve(G, b, selected)
+    coefficients = solve_subset(G, b, selected)
     explained = float(b[selected] @ coefficients) if selected else 0.0
     coefficients = coefficients / norm[selected] if selected else coefficients
     return Fit(tuple(selected), coefficients, zz - explained, zz, rows, baseline - bic(explained, len(selected)))
@@ -160,4 +169,15 @@ def selection_frequency(system: GramSystem, weights: np.ndarray, **selection) ->
 def coefficient_samples(system: GramSystem, chosen: Sequence[int], weights: np.ndarray) -> np.ndarray:
     """The ``chosen`` terms' coefficients refitted on each resample of ``weights`` (R, g): (R, k)."""
     G, b, _, _ = system.totals(weights)
-    return np.stack([_solve(G_r, b_r, chosen) for G_r, b_r in zip(G, b, strict=True)])
+    return np.stack([solve_subset(G_r, b_r, chosen) for G_r, b_r in zip(G, b, strict=True)])
+
+
+def independent_columns(columns: np.ndarray, tolerance: float = 1e-8) -> list[int]:
+    """Indices of columns that are not zero and not (nearly) a multiple of an earlier one."""
+    norms = np.linalg.norm(columns, axis=0)
+    kept: list[int] = []
+    for j in np.flatnonzero(norms > 0):
+        unit = columns[:, j] / norms[j]
+        if all(abs(unit @ columns[:, i] / norms[i]) < 1 - tolerance for i in kept):
+            kept.append(int(j))
+    return kept

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics import (
+from ...physics import (
     BALANCES,
     PART_ORDER,
     PROPERTIES,
@@ -39,7 +39,7 @@ from ..physics import (
     InputCorrection,
     PropertyCorrection,
 )  # fmt: skip
-from ..variables import INPUTS, MEANING
+from ...variables import INPUTS, MEANING
 from .library import Feature, evaluate, feature_library
 
 __all__ = ["Hypothesis", "candidate_hypotheses"]

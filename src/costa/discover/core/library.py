@@ -17,7 +17,7 @@ from itertools import combinations_with_replacement, product
 
 import numpy as np
 
-from ..physics import CellVariables
+from ...physics import CellVariables
 
 __all__ = ["FIRST_ORDER", "FLOW_INPUTS", "Feature", "feature_library"]
 

@@ -1,0 +1,51 @@
+"""Which of equally good explanations is named, and how a correction's effect is put in words."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+from ...physics import PART_ORDER, PROPERTIES
+from ...variables import INPUTS
+from .hypotheses import PREFERENCE, Hypothesis
+
+__all__ = ["naming_order", "removal"]
+
+
+def _consequences(h: Hypothesis, reads: Mapping[str, frozenset[str]]) -> set[str]:
+    """The parts computed from what ``h`` corrects, directly or through other parts: from a
+    part, from an input, or from the constants a property rescales.  ``reads``: what each part
+    reads (:meth:`CellModel.reads`).  A flow added to a balance is computed from nothing."""
+    if h.kind == "property":
+        sources = set(PROPERTIES[h.target].exponents)
+    elif h.kind in ("part", "input"):
+        sources = {h.target}
+    else:
+        return set()
+    computed: set[str] = set()
+    for name in PART_ORDER:  # the computation order: one pass follows every chain
+        if reads[name] & (sources | computed):
+            computed.add(name)
+    return computed
+
+
+def removal(share: float, excess: str = "the excess") -> str:
+    """What a correction does to ``excess`` (the excess over noise it removes, ``share`` of it), in
+    words: a negative share is an excess the correction made larger."""
+    return f"adds {-share:.0%} to {excess}" if share < 0 else f"removes {share:.0%} of {excess}"
+
+
+def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:
+    """Equally good explanations (items with a ``hypothesis``) in the order they are named: one
+    refining an effect named in an earlier round; then the cause before its consequences (a part
+    computed from another explanation's part, input or property comes after it); then fewest
+    terms (``terms(item)``); then an input before an added flow, a transfer, a part and a
+    property; then the earliest computed part (the order listed, for the other kinds)."""
+    downstream = set().union(*(_consequences(item.hypothesis, reads) for item in items))
+
+    def key(item) -> tuple:
+        h = item.hypothesis
+        order = {"part": PART_ORDER, "property": tuple(PROPERTIES), "input": INPUTS}.get(h.kind, (h.target,))
+        consequence = h.kind == "part" and h.target in downstream
+        return (h.key not in named, consequence, terms(item), PREFERENCE[h.kind], order.index(h.target))
+
+    return sorted(items, key=key)

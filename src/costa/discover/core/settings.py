@@ -1,0 +1,40 @@
+"""How discovery decides: the settings both routes read (the config sets some, the rest are fixed)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["DiscoverySettings"]
+
+
+@dataclass(frozen=True)
+class DiscoverySettings:
+    """How discovery decides; the same for every data set.  The config sets the window, the
+    test thresholds, the term and gain limits, the rounds, the bootstrap and the seed
+    (``discovery.*`` in the schema); the rest are fixed here."""
+
+    window: int = 64  # steps per weak-form window
+    window_scales: tuple[int, ...] = (1, 4, 16)  # longer windows, tried in turn when nothing disagrees
+    z_threshold: float = 6.0  # an equation disagrees if its chi-square excess is this many standard errors ...
+    min_excess: float = 0.1  # ... and at least this share of the noise variance
+    max_terms: int = 8  # terms in a closed form
+    min_gain: float = 10.0  # BIC gain a term (and a correction) must bring
+    min_explained: float = 0.5  # share of the excess residual a correction must remove
+    screen_keep: int = 8  # hypotheses that get a closed-form fit after screening (plus ties)
+    min_screen: float = 0.05  # ... if a free delta along them explains at least this share
+    refine_iterations: int = 8  # Gauss-Newton iterations
+    bootstrap: int = 200  # resamples that select each candidate's terms and give their intervals
+    blocks_per_trajectory: int = 4  # bootstrap groups: each trajectory cut into this many blocks
+    max_rounds: int = 3
+    noise_draws: int = 8  # Monte Carlo draws for the residual's noise scale
+    equivalence: float = 10.0  # explanations within this BIC of the best are equally good (strong evidence)
+    new_mechanism_margin: float = 0.05  # a new effect must gain this share more BIC than refining a named one
+    screen_steps: int = (
+        40_000  # partial measurements: every hypothesis is scored first on trajectories of this many steps in all
+    )
+    partial_candidates: int = 4  # ... the best so many get a closed form, fitted and scored on all trajectories
+    # ... random-walk steps of a hypothesis' delta, in noise stds per window (0: a constant delta)
+    walks: tuple[float, ...] = (0.0, 0.3, 3.0)
+    seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)
