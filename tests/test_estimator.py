@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
-from costa.discover.estimator import StateSpaceModel, innovation_tests, smooth
+from costa.discover.sparse.estimator import StateSpaceModel, innovation_tests, smooth
 
 
 def _linear_system(rng):

@@ -14,13 +14,14 @@ from costa.config import load_config
 from costa.discover.cases import CASES
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.settings import DiscoverySettings
-from costa.discover.estimator import innovation_tests
 from costa.discover.findings import findings, findings_markdown
-from costa.discover.observed import estimate_states
-from costa.discover.partial import Observations, channel_noise, hypothesis_scales
-from costa.discover.partial_pipeline import PartialResult, observations
-from costa.discover.partial_search import discover_round, fit_outcome
 from costa.discover.pipeline import case_tables, run_discovery, starting_model
+from costa.discover.sparse.estimator import innovation_tests
+from costa.discover.sparse.likelihood import hypothesis_scales
+from costa.discover.sparse.observations import Observations, channel_noise
+from costa.discover.sparse.observed import estimate_states
+from costa.discover.sparse.pipeline import PartialResult, observations
+from costa.discover.sparse.search import discover_round, fit_outcome
 from costa.observe import observe
 from costa.physics import true_model
 from costa.plots import plot_discovery
@@ -243,7 +244,7 @@ def test_the_gaps_rollouts_start_from_the_first_samples_only(default_config):
     """A rollout scored on held-out measurements starts from what the first ``start_steps`` samples
     say: the first state is searched on them, not on the hours after, which the rollout is scored on
     (hand samples 8 h on would otherwise place the start of a forecast that is scored there)."""
-    from costa.discover.gap import measured_gap
+    from costa.discover.sparse.gap import measured_gap
     from costa.metrics import EvaluationSettings
 
     config = copy.deepcopy(default_config)
@@ -267,8 +268,8 @@ def test_where_the_start_needs_the_first_hand_samples_the_gaps_first_window_hold
     placed the start.  Records whose composition is sampled at the first step keep the paper's
     windows; a record too short for any window after the start is refused with the reason."""
     from costa.data import TrajectoryDataError
-    from costa.discover.partial_pipeline import _estimation_windows
     from costa.discover.pipeline import PAPER_FRACTIONS
+    from costa.discover.sparse.pipeline import _estimation_windows
     from costa.metrics import EvaluationSettings, windows_from_fractions
 
     steps = 17280
@@ -335,7 +336,7 @@ def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_los
     """Where the uncorrected model's filter diverges, no difference from it is evidence: there the
     models are compared with the best of them, a model that loses a trajectory gains minus
     infinity, and the trajectories a model holds where the base diverged are counted apart."""
-    from costa.discover.partial import likelihood_gains
+    from costa.discover.sparse.likelihood import likelihood_gains
 
     base = np.array([-10.0, -20.0, -np.inf])
     rows = np.array([[-8.0, -19.0, -5.0], [-9.0, -15.0, -np.inf], [-1.0, np.nan, -1.0], [-9.0, -19.0, -7.0]])
@@ -351,8 +352,8 @@ def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_los
 def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves():
     """BIC differences are evidence only under a likelihood that fits: the window grows by the best
     correction's mean square innovation over all samples (as QAIC divides by c-hat), never shrinks."""
-    from costa.discover.estimator import ChannelTest
-    from costa.discover.partial_search import _dispersion
+    from costa.discover.sparse.estimator import ChannelTest
+    from costa.discover.sparse.search import _dispersion
 
     def best(*tests):
         return [SimpleNamespace(tests_after=[ChannelTest(c, n, chi2, 0, 0, 0, 0, False) for c, n, chi2 in tests])]
@@ -369,7 +370,7 @@ def test_refined_coefficients_recover_a_hidden_flow_whose_terms_span_decades(def
     decades (as in the full-size case): the posterior is combined in units of the prior widths (in raw units
     rounding alone made it look improper, and the refinement gave up), recovers the truth and
     leaves the absent terms' intervals around zero."""
-    from costa.discover.partial import refine_coefficients
+    from costa.discover.sparse.likelihood import refine_coefficients
 
     config = _reduced(default_config, 5000)  # shorter records never made the old combination fail
     config["discovery"]["trajectories"] = 3
@@ -396,8 +397,8 @@ def test_the_screen_sends_the_best_few_and_their_exact_ties_to_a_fit():
     """The best ``partial_candidates`` go on, with those tied exactly with the last; a hypothesis
     with nothing to show (no gain, no cell held where the uncorrected filter was lost) never does,
     and a gain of minus infinity ties with nothing."""
-    from costa.discover.partial import HypothesisScore
-    from costa.discover.partial_search import best_screened
+    from costa.discover.sparse.likelihood import HypothesisScore
+    from costa.discover.sparse.search import best_screened
 
     def score(name, gain, rescued=0):
         return HypothesisScore(SimpleNamespace(key=name), 1.0, 0.0, gain, rescued)
@@ -417,7 +418,7 @@ def test_each_round_tests_its_model_from_the_start_that_model_places_the_cell_at
     (searched once, in the round that chose it): from the uncorrected model's starts a right
     correction's channels still looked wrong, and a second round named a second effect that is not
     there."""
-    from costa.discover import partial_search
+    from costa.discover.sparse import search
 
     seen = []
 
@@ -429,8 +430,8 @@ def test_each_round_tests_its_model_from_the_start_that_model_places_the_cell_at
         )
         return SimpleNamespace(named=chosen.hypothesis, chosen=chosen, corrected=corrected)
 
-    monkeypatch.setattr(partial_search, "discover_round", one_round)
-    partial_search.discover_partial("m0", "first", DiscoverySettings(max_rounds=3))
+    monkeypatch.setattr(search, "discover_round", one_round)
+    search.discover_partial("m0", "first", DiscoverySettings(max_rounds=3))
     assert seen == [("m0", "first"), ("m1", "searched under m1"), ("m2", "searched under m2")]
 
 
@@ -442,9 +443,9 @@ def test_hypotheses_of_the_same_physics_are_fitted_once_as_the_one_named_first()
     the bubbles and the bath's conductivity, which all change the voltage but in proportions that
     vary with the current and the composition (by 2.5-5.5 % over cells 2 % apart), are fitted each on
     its own."""
-    from costa.discover.observed import NOMINAL_STATE
-    from costa.discover.partial import HypothesisScore
-    from costa.discover.partial_search import distinct_physics
+    from costa.discover.sparse.likelihood import HypothesisScore
+    from costa.discover.sparse.observed import NOMINAL_STATE
+    from costa.discover.sparse.search import distinct_physics
 
     model = true_model()
     by_key = {h.key: h for h in candidate_hypotheses(model)}
@@ -466,8 +467,8 @@ def test_a_trajectory_whose_filter_was_lost_leaves_the_closed_form_to_the_others
     which one filter was lost an hour in (its states overflow, then turn NaN): the regression
     finds the same terms and coefficients from the three it holds, where the lost cell used to make
     every coefficient NaN."""
-    from costa.discover.estimator import Smoothed
-    from costa.discover.partial_search import _closed_form
+    from costa.discover.sparse.estimator import Smoothed
+    from costa.discover.sparse.search import _closed_form
 
     model = true_model()
     settings = SimulationSettings.from_config(load_config()["simulation"])
@@ -503,7 +504,7 @@ def test_the_refinement_combines_the_trajectories_whose_filter_holds():
     """AlF3 lost at a constant 0.003 kg/s, refined from 0 on four cells' AlF3 fraction, one of which
     has a step the model cannot evaluate (its filter is lost): the other three give the same answer
     as alone, the truth within its interval, where one lost cell used to void the refinement."""
-    from costa.discover.partial import refine_coefficients
+    from costa.discover.sparse.likelihood import refine_coefficients
 
     model = true_model()
     (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
@@ -528,21 +529,21 @@ def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monke
     """Smoothed along current_efficiency, alumina_feeder's plant record holds 6 of its 12 cells: no
     closed form rests on the other half (the refinement gives up at the same share), so the
     candidate goes on with no terms, and none of the fit's stages runs; 7 of 12 is fitted."""
-    from costa.discover import partial_search
-    from costa.discover.estimator import Smoothed
-    from costa.discover.partial import HypothesisScore, mostly_lost
+    from costa.discover.sparse import search
+    from costa.discover.sparse.estimator import Smoothed
+    from costa.discover.sparse.likelihood import HypothesisScore, mostly_lost
 
     assert mostly_lost(np.arange(12) < 6) and not mostly_lost(np.arange(12) < 7)
     mean = np.ones((12, 5, 9))
     mean[6:, 3:] = np.nan
     smoothed = Smoothed(mean, mean, np.zeros((12, 5, 1)), np.zeros(12), None)
-    monkeypatch.setattr(partial_search, "smooth_hypothesis", lambda *args: smoothed)
+    monkeypatch.setattr(search, "smooth_hypothesis", lambda *args: smoothed)
 
     def never(*args):
         raise AssertionError("a hypothesis lost on half the cells was fitted")
 
-    monkeypatch.setattr(partial_search, "_closed_form", never)
+    monkeypatch.setattr(search, "_closed_form", never)
     score = HypothesisScore(SimpleNamespace(key="property:current_efficiency"), 1.0, 0.3, 1.0)
     obs = Observations(np.zeros((12, 5, 1)), np.zeros((12, 5, 5)), ("U_cell",), np.ones(1), 10.0)
-    candidate = partial_search._fit(score, true_model(), obs, DiscoverySettings(), 0, False, [])
+    candidate = search._fit(score, true_model(), obs, DiscoverySettings(), 0, False, [])
     assert candidate.features == [] and candidate.corrected is None and candidate.samples.shape == (200, 0)

@@ -358,7 +358,7 @@ def test_config_templates_run_as_written(template, tmp_path):
     with the template saved there and a table of the template's shape at its path; the sensor noise the
     template declares covers every channel of that table that is not sampled at every step."""
     from costa.data import load_trajectories, measured_trajectories
-    from costa.discover.partial import channel_noise
+    from costa.discover.sparse.observations import channel_noise
 
     document, config, command = template
     user_data = config["discovery"]["user_data"]

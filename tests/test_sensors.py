@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from costa.discover.cases import add_noise
-from costa.discover.estimator import innovation_tests
-from costa.discover.observed import estimate_states
+from costa.discover.sparse.estimator import innovation_tests
+from costa.discover.sparse.observed import estimate_states
 from costa.observe import observe
 from costa.physics import ablated_model, true_model
 from costa.sensors import CHANNELS, Sensor, SensorSet, measure, sensor_sets_from_config

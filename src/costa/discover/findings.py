@@ -11,10 +11,10 @@ import pandas as pd
 from ..variables import MEANING, STATES
 from .core.fitted_terms import KEEP_LEVEL
 from .core.naming import removal
-from .partial_pipeline import PartialResult
-from .partial_search import PartialRound, fit_outcome
 from .pipeline import DiscoveryResult
 from .search import Candidate, Round
+from .sparse.pipeline import PartialResult
+from .sparse.search import PartialRound, fit_outcome
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)

@@ -22,8 +22,8 @@ from .cases import HiddenEffectCase
 from .core.noise import estimate_noise
 from .core.settings import DiscoverySettings
 from .gap import gap_tables, noise_floor
-from .partial_pipeline import PartialResult, run_partial_discovery
 from .search import Round, discover
+from .sparse.pipeline import PartialResult, run_partial_discovery
 from .unshipped import find_case
 
 __all__ = [
@@ -186,7 +186,7 @@ def run_discovery(
 
     Tables with every state at every step take the weak-form route; any other table (states
     missing or sampled now and then, outputs such as the cell voltage) the estimator's
-    (:mod:`.partial_search`), with ``declared_noise`` for channels too sparse to estimate it.
+    (:mod:`.sparse.search`), with ``declared_noise`` for channels too sparse to estimate it.
     ``name`` keys the random streams; ``source`` names the data in error messages.
     """
     settings = replace(settings_from_config(config), seed=seeds.stream(config["seed"], 0, f"discovery/{name}/search"))

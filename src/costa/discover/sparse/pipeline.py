@@ -17,14 +17,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from ..data import TrajectoryDataError, measured_trajectories
-from ..metrics import EvaluationSettings
-from ..physics import CellModel
-from .core.settings import DiscoverySettings
+from ...data import TrajectoryDataError, measured_trajectories
+from ...metrics import EvaluationSettings
+from ...physics import CellModel
+from ..core.settings import DiscoverySettings
 from .gap import measured_gap, measured_noise_floor
+from .observations import Observations, channel_noise
 from .observed import START_SEARCH_S, start_is_searched
-from .partial import Observations, channel_noise
-from .partial_search import PartialRound, discover_partial
+from .search import PartialRound, discover_partial
 
 __all__ = ["PartialResult", "observations", "run_partial_discovery"]
 

@@ -5,7 +5,7 @@ One round on the current model:
 1. the smoother's innovations of every measured channel are tested for variance, bias
    and whiteness (:func:`.estimator.innovation_tests`); nothing flagged -> stop;
 2. every hypothesis gets a random-walk delta(t) in the smoother and is scored, on a few
-   trajectories, by the log-likelihood it gains (:func:`.partial.score_hypotheses`);
+   trajectories, by the log-likelihood it gains (:func:`.likelihood.score_hypotheses`);
    the best ``partial_candidates`` go on, one of each group of the same physics
    (:func:`distinct_physics`);
 3. each of those is smoothed on all trajectories (one whose filter is lost on half of
@@ -35,14 +35,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..observe import observe
-from ..physics import CellModel
-from ..variables import CHANNELS
-from .core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
-from .core.hypotheses import Hypothesis, candidate_hypotheses
-from .core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from .core.naming import naming_order, removal
-from .core.regression import (
+from ...observe import observe
+from ...physics import CellModel
+from ...variables import CHANNELS
+from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
+from ..core.hypotheses import Hypothesis, candidate_hypotheses
+from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
+from ..core.naming import naming_order, removal
+from ..core.regression import (
     GramSystem,
     coefficient_samples,
     independent_columns,
@@ -50,18 +50,18 @@ from .core.regression import (
     selection_frequency,
     solve_subset,
 )
-from .core.settings import DiscoverySettings
+from ..core.settings import DiscoverySettings
 from .estimator import ChannelTest, Smoothed, innovation_tests
-from .observed import estimate_states
-from .partial import (
+from .likelihood import (
     HypothesisScore,
-    Observations,
     likelihood_gains,
     mostly_lost,
     refine_coefficients,
     score_hypotheses,
     smooth_hypothesis,
 )
+from .observations import Observations
+from .observed import estimate_states
 
 __all__ = ["PartialRound", "discover_partial", "distinct_physics", "fit_outcome", "separating_channel"]
 
@@ -244,7 +244,7 @@ def _closed_form(
 
 def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: Smoothed, rich: bool, rng):
     """The closed form ``fit`` (features, coefficients, samples) refined on the measured channels
-    (:func:`.partial.refine_coefficients`), with samples of their posterior in place of the bootstrap's.
+    (:func:`.likelihood.refine_coefficients`), with samples of their posterior in place of the bootstrap's.
 
     Beside the selected terms, the library's flow inputs (the feed and tapping, one-step doses)
     and its first-order terms (:data:`.core.library.FIRST_ORDER`) are refined: a delta proportional to
@@ -391,7 +391,7 @@ def _fit(
 
 def _score(candidates: Sequence[PartialCandidate], base_likelihood: np.ndarray, samples: int) -> None:
     """Each fitted candidate's BIC gain over the uncorrected model on ``samples`` measured values, and
-    the trajectories it holds where the uncorrected filter diverged (:func:`.partial.likelihood_gains`)."""
+    the trajectories it holds where the uncorrected filter diverged (:func:`.likelihood.likelihood_gains`)."""
     fitted = [c for c in candidates if c.log_likelihood is not None]
     if not fitted:
         return

@@ -20,10 +20,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..integrate import rk4_step
-from ..observe import observe
-from ..physics import CellModel
-from ..variables import STATES
+from ...integrate import rk4_step
+from ...observe import observe
+from ...physics import CellModel
+from ...variables import STATES
 from .estimator import Smoothed, StateSpaceModel, smooth
 
 __all__ = [
