@@ -22,11 +22,11 @@ from costa.discover.core.regression import (
     stepwise,
 )  # fmt: skip
 from costa.discover.findings import findings, findings_markdown
+from costa.discover.full_state.search import Candidate
+from costa.discover.full_state.weak_form import WeakForm, equation_tests
 from costa.discover.pipeline import case_tables, run_discovery, split_held_out, starting_model
-from costa.discover.search import Candidate
 from costa.discover.truth import TRUTHS
 from costa.discover.unshipped import UNSHIPPED
-from costa.discover.weak_form import WeakForm, equation_tests
 from costa.physics import PART_ORDER, InputCorrection, ablated_model
 from costa.simulate import simulate_set
 

@@ -24,7 +24,8 @@ import pandas as pd
 from . import seeds
 from .data import arrays, to_table
 from .discover.cases import add_noise
-from .discover.pipeline import DiscoveryResult, run_discovery, starting_model
+from .discover.full_state.pipeline import DiscoveryResult
+from .discover.pipeline import run_discovery, starting_model
 from .replicates import aggregate_table
 from .summary import summary_table
 

@@ -2,6 +2,6 @@
 
 from .cases import CASES, HiddenEffectCase, add_noise
 from .core.settings import DiscoverySettings
-from .search import Round, discover
+from .full_state.search import Round, discover
 
 __all__ = ["CASES", "DiscoverySettings", "HiddenEffectCase", "Round", "add_noise", "discover"]

@@ -11,8 +11,8 @@ import pandas as pd
 from ..variables import MEANING, STATES
 from .core.fitted_terms import KEEP_LEVEL
 from .core.naming import removal
-from .pipeline import DiscoveryResult
-from .search import Candidate, Round
+from .full_state.pipeline import DiscoveryResult
+from .full_state.search import Candidate, Round
 from .sparse.pipeline import PartialResult
 from .sparse.search import PartialRound, fit_outcome
 

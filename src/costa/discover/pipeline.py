@@ -2,63 +2,33 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from .. import seeds
-from ..data import TrajectoryDataError, arrays, incomplete_states, load_trajectories, time_step
-from ..metrics import EvaluationSettings, state_scale, windows_from_fractions
+from ..data import TrajectoryDataError, incomplete_states, load_trajectories
+from ..metrics import EvaluationSettings, windows_from_fractions
 from ..observe import observe
 from ..physics import CellModel, model_from_config
 from ..sensors import measure, sensor_sets_from_config
 from ..simulate import SimulationSettings, simulate_set
-from ..variables import INPUTS
 from .cases import HiddenEffectCase
-from .core.noise import estimate_noise
 from .core.settings import DiscoverySettings
-from .gap import gap_tables, noise_floor
-from .search import Round, discover
+from .full_state.pipeline import DiscoveryResult, run_full_state_discovery
 from .sparse.pipeline import PartialResult, run_partial_discovery
 from .unshipped import find_case
 
 __all__ = [
-    "DiscoveryData",
-    "DiscoveryResult",
     "case_tables",
     "gap_settings",
     "run_discovery",
     "split_held_out",
     "starting_model",
 ]
-
-
-@dataclass(frozen=True)
-class DiscoveryData:
-    """Measured trajectories to learn from, held-out ones to measure the gap on, and dt [s]."""
-
-    x: np.ndarray
-    u: np.ndarray
-    x_held_out: np.ndarray
-    u_held_out: np.ndarray
-    dt: float
-
-
-@dataclass
-class DiscoveryResult:
-    rounds: list[Round]
-    noise: np.ndarray
-    corrected: CellModel
-    gap: pd.DataFrame
-    per_state: pd.DataFrame
-    floor: dict[str, float]
-    seconds: float
-    windows: dict[str, tuple[int, int]]  # the gap's windows [start, stop) in steps of the held-out data
-    dt: float  # the data's time step [s]
 
 
 def starting_model(config: Mapping, name: str) -> CellModel:
@@ -114,27 +84,6 @@ def split_held_out(path: str | Path, fraction: float) -> tuple[pd.DataFrame, pd.
     return table[~table["trajectory"].isin(held)], table[table["trajectory"].isin(held)]
 
 
-def _check_suitable(x: np.ndarray, u: np.ndarray, window: int, source: str) -> None:
-    """One clear error if the data cannot support discovery."""
-    if x.shape[1] < 4 * window + 1:
-        raise TrajectoryDataError(
-            f"{source}: trajectories of {x.shape[1]} samples are too short; discovery needs at least "
-            f"{4 * window + 1} (4 windows of discovery.window_steps = {window})"
-        )
-    constant = [name for i, name in enumerate(INPUTS) if np.ptp(u[..., i]) == 0]
-    if constant:
-        raise TrajectoryDataError(
-            f"{source}: inputs {constant} do not vary; discovery needs excited inputs to tell effects apart"
-        )
-
-
-def _data(train: pd.DataFrame, held_out: pd.DataFrame, source: str, window: int) -> DiscoveryData:
-    x, u = arrays(train)
-    xh, uh = arrays(held_out)
-    _check_suitable(x, u, window, source)
-    return DiscoveryData(x, u, xh, uh, time_step(train))
-
-
 #: the paper's windows [0, 100), [100, 2500), [2500, 5000) as fractions of a trajectory's length
 PAPER_FRACTIONS = {"short": (0.0, 0.02), "medium": (0.02, 0.5), "long": (0.5, 1.0)}
 
@@ -184,9 +133,9 @@ def run_discovery(
 ) -> DiscoveryResult | PartialResult:
     """Discover on ``train``, then measure the gap of the starting and corrected models on ``held_out``.
 
-    Tables with every state at every step take the weak-form route; any other table (states
-    missing or sampled now and then, outputs such as the cell voltage) the estimator's
-    (:mod:`.sparse.search`), with ``declared_noise`` for channels too sparse to estimate it.
+    Tables with every state at every step take the weak-form route (:mod:`.full_state`); any
+    other table (states missing or sampled now and then, outputs such as the cell voltage) the
+    estimator's (:mod:`.sparse`), with ``declared_noise`` for channels too sparse to estimate it.
     ``name`` keys the random streams; ``source`` names the data in error messages.
     """
     settings = replace(settings_from_config(config), seed=seeds.stream(config["seed"], 0, f"discovery/{name}/search"))
@@ -196,20 +145,6 @@ def run_discovery(
         return run_partial_discovery(
             train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng
         )
-    data = _data(train, held_out, source, settings.window)
-    started = time.perf_counter()
-    rounds, noise = discover(start, data.x, data.u, data.dt, settings)
-    seconds = time.perf_counter() - started
-    corrected = next((r.chosen.corrected for r in reversed(rounds) if r.chosen is not None), start)
-    evaluation = gap_settings(config, name, data.x_held_out.shape[1])
-    scale = state_scale(data.x)
-    models = (
-        {"starting model": start, "corrected model": corrected} if corrected is not start else {"starting model": start}
+    return run_full_state_discovery(
+        train, held_out, start, settings, lambda steps: gap_settings(config, name, steps), source, floor_rng
     )
-    gap, per_state = gap_tables(models, data.x_held_out, data.u_held_out, data.dt, scale, evaluation)
-    # the held-out trajectories' own noise: their sensors (or their noise level) may differ
-    held_out_noise = estimate_noise(data.x_held_out)
-    floor = noise_floor(
-        corrected, data.x_held_out, data.u_held_out, data.dt, held_out_noise, scale, evaluation, floor_rng
-    )
-    return DiscoveryResult(rounds, noise, corrected, gap, per_state, floor, seconds, dict(evaluation.windows), data.dt)

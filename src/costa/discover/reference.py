@@ -13,7 +13,7 @@ from ..metrics import state_scale
 from ..models import NetworkModel
 from ..physics import CellModel
 from ..train import ModelType, TrainingData, TrainingSettings, train_ensemble, training_data
-from .gap import gap_tables
+from .full_state.gap import gap_tables
 from .pipeline import gap_settings
 
 __all__ = ["costa_reference", "train_costa"]

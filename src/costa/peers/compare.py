@@ -10,7 +10,7 @@ import pandas as pd
 
 from .. import seeds
 from ..data import arrays
-from ..discover.gap import gap_tables
+from ..discover.full_state.gap import gap_tables
 from ..discover.pipeline import starting_model
 from ..discover.reference import train_costa
 from ..discover.truth import TRUTHS, Truth, changed_equations

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..integrate import rk4_step
-from ..physics import CellModel
-from ..variables import STATES
+from ...integrate import rk4_step
+from ...physics import CellModel
+from ...variables import STATES
 
 __all__ = [
     "EquationTest",

@@ -4,11 +4,11 @@ One round:
 
 1. residuals of the current model in weak form, and a chi-square test per equation
    against the noise (:mod:`.weak_form`); nothing flagged -> stop, nothing invented;
-2. every hypothesis (:mod:`.core.hypotheses`) is screened by how much of the residual a
-   free delta(t) along its sensitivity explains; the promising ones get a sparse
-   closed form from the term library (:mod:`.core.library`, :mod:`.core.regression`): the terms
-   a bootstrap over blocks of trajectories of the forward selection picks in at least
-   half the resamples, refined by Gauss-Newton on the exact residual (a wrong liquidus
+2. every hypothesis (:mod:`..core.hypotheses`) is screened by how much of the residual
+   a free delta(t) along its sensitivity explains; the promising ones get a sparse
+   closed form from the term library (:mod:`..core.library`, :mod:`..core.regression`):
+   the terms a bootstrap over blocks of trajectories of the forward selection picks in
+   at least half the resamples, refined by Gauss-Newton on the exact residual (a wrong liquidus
    temperature enters the energy balances squared); a term whose 99 % interval from the
    same resamples covers zero is dropped and the rest refitted, so every kept term's
    reported interval excludes zero;
@@ -33,14 +33,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.stats import spearmanr
 
-from ..physics import CellModel, CellVariables
-from ..variables import STATES
-from .core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
-from .core.hypotheses import Hypothesis, candidate_hypotheses
-from .core.library import Feature
-from .core.naming import naming_order, removal
-from .core.noise import estimate_noise
-from .core.regression import (
+from ...physics import CellModel, CellVariables
+from ...variables import STATES
+from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
+from ..core.hypotheses import Hypothesis, candidate_hypotheses
+from ..core.library import Feature
+from ..core.naming import naming_order, removal
+from ..core.noise import estimate_noise
+from ..core.regression import (
     GramSystem,
     coefficient_samples,
     independent_columns,
@@ -48,7 +48,7 @@ from .core.regression import (
     selection_frequency,
     solve_subset,
 )
-from .core.settings import DiscoverySettings
+from ..core.settings import DiscoverySettings
 from .weak_form import EquationTest, WeakForm, equation_tests
 
 __all__ = ["Candidate", "Round", "discover"]

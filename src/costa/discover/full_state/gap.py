@@ -1,4 +1,4 @@
-"""The gap between a model and held-out measurements, before and after a correction."""
+"""The gap between a model and held-out trajectories of every state, before and after a correction."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from ..forecast import rollout_physics
-from ..metrics import EvaluationSettings, per_state_table, per_step_error, window_metrics
-from ..physics import CellModel
+from ...forecast import rollout_physics
+from ...metrics import EvaluationSettings, per_state_table, per_step_error, window_metrics
+from ...physics import CellModel
 
 __all__ = ["gap_tables", "noise_floor"]
 
