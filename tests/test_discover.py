@@ -11,6 +11,9 @@ from conftest import random_operating_points
 
 from costa.data import TrajectoryDataError, to_table
 from costa.discover import CASES, DiscoverySettings, HiddenEffectCase, add_noise, discover
+from costa.discover.cases.tables import case_tables
+from costa.discover.cases.truth import TRUTHS
+from costa.discover.cases.unshipped import UNSHIPPED
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.naming import naming_order, removal
 from costa.discover.core.noise import estimate_noise
@@ -24,9 +27,7 @@ from costa.discover.core.regression import (
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.full_state.search import Candidate
 from costa.discover.full_state.weak_form import WeakForm, equation_tests
-from costa.discover.pipeline import case_tables, run_discovery, split_held_out, starting_model
-from costa.discover.truth import TRUTHS
-from costa.discover.unshipped import UNSHIPPED
+from costa.discover.pipeline import run_discovery, split_held_out, starting_model
 from costa.physics import PART_ORDER, InputCorrection, ablated_model
 from costa.simulate import simulate_set
 
@@ -281,7 +282,7 @@ def test_shipped_case_at_full_size(default_config, case):
     assert found["discovery_seconds"] < 120
 
 
-#: effects the workflow was not designed around (:mod:`costa.discover.unshipped`), with the closed
+#: effects the workflow was not designed around (:mod:`costa.discover.cases.unshipped`), with the closed
 #: form that is true: the workflow must generalise beyond the shipped cases.  These effects are small
 #: (the starting model is within about 2x of the noise floor), so the test asks for the right name and
 #: coefficients rather than a share of a gap that is itself mostly noise.

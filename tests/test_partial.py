@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 
 from costa.config import load_config
-from costa.discover.cases import CASES
+from costa.discover.cases.shipped import CASES
+from costa.discover.cases.tables import case_tables
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.settings import DiscoverySettings
 from costa.discover.findings import findings, findings_markdown
-from costa.discover.pipeline import case_tables, run_discovery, starting_model
+from costa.discover.pipeline import run_discovery, starting_model
 from costa.discover.sparse.estimator import innovation_tests
 from costa.discover.sparse.likelihood import hypothesis_scales
 from costa.discover.sparse.observations import Observations, channel_noise

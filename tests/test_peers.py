@@ -13,11 +13,12 @@ import pytest
 from conftest import REPOSITORY, random_operating_points
 
 from costa.discover import CASES, add_noise
+from costa.discover.cases.tables import case_tables
+from costa.discover.cases.truth import TRUTHS, changed_equations, correction_variables, term_variables
+from costa.discover.cases.unshipped import UNSHIPPED, find_case
 from costa.discover.findings import findings
-from costa.discover.pipeline import case_tables, run_discovery, starting_model
+from costa.discover.pipeline import run_discovery, starting_model
 from costa.discover.reference import train_costa
-from costa.discover.truth import TRUTHS, changed_equations, correction_variables, term_variables
-from costa.discover.unshipped import UNSHIPPED, find_case
 from costa.metrics import EvaluationSettings, state_scale
 from costa.peers.compare import METHODS, compare_case
 from costa.peers.methods import PeerSettings, pysindy_peer, ude_peer

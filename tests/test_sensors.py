@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from costa.discover.cases import add_noise
+from costa.discover.cases.shipped import add_noise
 from costa.discover.sparse.estimator import innovation_tests
 from costa.discover.sparse.observed import estimate_states
 from costa.observe import observe

@@ -23,7 +23,7 @@ import pandas as pd
 
 from . import seeds
 from .data import arrays, to_table
-from .discover.cases import add_noise
+from .discover.cases.shipped import add_noise
 from .discover.full_state.pipeline import DiscoveryResult
 from .discover.pipeline import run_discovery, starting_model
 from .replicates import aggregate_table

@@ -135,7 +135,7 @@ def check_user_data(config: Mapping[str, Any]) -> None:
 
 
 def _check_peers(config: Mapping[str, Any]) -> None:
-    from .discover.unshipped import find_case
+    from .discover.cases.unshipped import find_case
 
     for name in config.get("peers", {}).get("cases") or []:
         try:

@@ -139,9 +139,9 @@ DISCOVERY_CODE = SIMULATION_CODE + package_files(
 # what a shipped case's data come from: its hidden effect, the simulation and the sensors
 # (so that a change of the discovery's own code does not simulate the data again)
 CASE_DATA_CODE = SIMULATION_CODE + package_files(
-    "discover/cases.py",
-    "discover/unshipped.py",
-    "discover/pipeline.py",
+    "discover/cases/shipped.py",
+    "discover/cases/unshipped.py",
+    "discover/cases/tables.py",
     "observe.py",
     "sensors.py",
 )
@@ -153,7 +153,7 @@ DISCOVERY_CASES = SHIPPED_CASES + ([USER_CASE] if USER_CASE else [])
 def _peer_cases():
     """peers.cases, or every shipped case and every unshipped effect (the registries, read now)."""
     from costa.discover import CASES
-    from costa.discover.unshipped import UNSHIPPED
+    from costa.discover.cases.unshipped import UNSHIPPED
 
     return list(config["peers"]["cases"] or [*CASES, *UNSHIPPED])
 
@@ -188,7 +188,7 @@ def starting_model_name(wildcards):
     """A shipped case says which model it starts from; your data start from the configured one."""
     if wildcards.case == USER_CASE:
         return config["discovery"]["user_data"]["starting_model"]
-    from costa.discover.unshipped import find_case
+    from costa.discover.cases.unshipped import find_case
 
     return find_case(wildcards.case).starting
 
@@ -197,7 +197,7 @@ def discovery_meta(wildcards):
     """What findings.json records about the data (and, for a shipped case, what is hidden)."""
     if wildcards.case == USER_CASE:
         return {"data": f"measurements from {config['discovery']['user_data']['path']}"}
-    from costa.discover.unshipped import find_case
+    from costa.discover.cases.unshipped import find_case
 
     case = find_case(wildcards.case)
     d = config["discovery"]

@@ -2,7 +2,7 @@
 
 from costa import runtime
 from costa.data import write_trajectories
-from costa.discover.pipeline import case_tables
+from costa.discover.cases.tables import case_tables
 
 runtime.configure(snakemake)
 sensors = snakemake.wildcards.get("sensors", "full")

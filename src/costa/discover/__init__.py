@@ -1,6 +1,6 @@
 """Discovery of missing physics: where a model and measured data disagree, what is missing, and a fix."""
 
-from .cases import CASES, HiddenEffectCase, add_noise
+from .cases.shipped import CASES, HiddenEffectCase, add_noise
 from .core.settings import DiscoverySettings
 from .full_state.search import Round, discover
 

@@ -1,4 +1,10 @@
-"""A discovery run from data to findings: load or simulate, check, discover, measure the gap."""
+"""A discovery run from data to findings: the glue that picks the route.
+
+The starting model, the settings and the gap's windows come from the config; a table with
+every state at every step goes the full-state route (:mod:`.full_state`), any other the
+sparse route (:mod:`.sparse`).  A user's own table is split into training and held-out
+trajectories here too.
+"""
 
 from __future__ import annotations
 
@@ -12,18 +18,12 @@ import pandas as pd
 from .. import seeds
 from ..data import TrajectoryDataError, incomplete_states, load_trajectories
 from ..metrics import EvaluationSettings, windows_from_fractions
-from ..observe import observe
 from ..physics import CellModel, model_from_config
-from ..sensors import measure, sensor_sets_from_config
-from ..simulate import SimulationSettings, simulate_set
-from .cases import HiddenEffectCase
 from .core.settings import DiscoverySettings
 from .full_state.pipeline import DiscoveryResult, run_full_state_discovery
 from .sparse.pipeline import PartialResult, run_partial_discovery
-from .unshipped import find_case
 
 __all__ = [
-    "case_tables",
     "gap_settings",
     "run_discovery",
     "split_held_out",
@@ -38,38 +38,6 @@ def starting_model(config: Mapping, name: str) -> CellModel:
     if name not in models:
         raise ValueError(f"unknown starting model {name!r}; known: {sorted(models)}")
     return models[name]
-
-
-def case_tables(
-    config: Mapping, case: str | HiddenEffectCase, sensors: str = "full"
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Training and held-out tables of a case (a shipped or unshipped one by name), simulated with its true model
-    and measured by the sensor set ``sensors`` of ``discovery.sensor_sets``.
-
-    A sensor that leaves its noise open gets the case's level: that fraction of its channel's
-    std over the data set (the full set is then every state with the case's noise).
-    """
-    case = find_case(case) if isinstance(case, str) else case
-    discovery = config["discovery"]
-    sensor_set = sensor_sets_from_config(discovery["sensor_sets"])[sensors]
-    settings = SimulationSettings.from_config(config["simulation"])
-    settings = replace(settings, steps=sensor_set.steps(settings.dt, settings.steps))
-    true, _ = case.models(model_from_config(config["physics"])[0])
-    tables = []
-    counts = (
-        ("train", sensor_set.trajectories or discovery["trajectories"]),
-        ("held_out", sensor_set.held_out_trajectories or discovery["held_out_trajectories"]),
-    )
-    for split, count in counts:
-        stream = f"discovery/{case.name}/{split}"
-        trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream)
-        x, u = trajectories.x, trajectories.u
-        values = observe(true, x, u, sensor_set.channels).reshape(-1, len(sensor_set.channels))
-        default = dict(zip(sensor_set.channels, case.noise * values.std(axis=0), strict=True))
-        noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
-        rng = seeds.numpy_generator(config["seed"], 0, noise)
-        tables.append(measure(true, x, u, settings.dt, sensor_set, rng, default))
-    return tables[0], tables[1]
 
 
 def split_held_out(path: str | Path, fraction: float) -> tuple[pd.DataFrame, pd.DataFrame]:

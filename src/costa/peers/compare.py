@@ -10,11 +10,11 @@ import pandas as pd
 
 from .. import seeds
 from ..data import arrays
+from ..discover.cases.truth import TRUTHS, Truth, changed_equations
+from ..discover.cases.unshipped import find_case
 from ..discover.full_state.gap import gap_tables
 from ..discover.pipeline import starting_model
 from ..discover.reference import train_costa
-from ..discover.truth import TRUTHS, Truth, changed_equations
-from ..discover.unshipped import find_case
 from ..metrics import EvaluationSettings, state_scale
 from ..physics import model_from_config
 from .methods import PeerResult, PeerSettings, pysindy_peer, ude_peer

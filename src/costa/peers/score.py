@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..discover.cases.truth import Truth, changed_equations, correction_variables
 from ..discover.core.hypotheses import candidate_hypotheses
-from ..discover.truth import Truth, changed_equations, correction_variables
 from ..physics import BALANCES, CellModel
 from .sparse import SparseFit
 

@@ -1,6 +1,6 @@
 """Hidden effects the workflow was not designed around: cases that are not shipped.
 
-They are built like the shipped cases (:mod:`.cases`) but are not in ``discovery.cases``'
+They are built like the shipped cases (:mod:`.shipped`) but are not in ``discovery.cases``'
 default: ``pytest -m slow`` checks that discovery generalises to them, and the peers
 stage (:mod:`costa.peers`) compares methods on them.  These effects are small (the
 starting model is within about 2x of the noise floor).
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ..physics import PROPERTIES, CellModel, PropertyCorrection
-from .cases import CASES, HiddenEffectCase
+from ...physics import PROPERTIES, CellModel, PropertyCorrection
+from .shipped import CASES, HiddenEffectCase
 
 __all__ = ["UNSHIPPED", "find_case"]
 

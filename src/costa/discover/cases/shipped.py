@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics import PROPERTIES, BalanceTerm, CellModel, InputCorrection, PropertyCorrection, ablated_model
+from ...physics import PROPERTIES, BalanceTerm, CellModel, InputCorrection, PropertyCorrection, ablated_model
 
 __all__ = ["CASES", "HiddenEffectCase", "add_noise"]
 

@@ -2,7 +2,7 @@
 
 A :class:`Truth` says which variables the effect depends on and, where the true
 correction is (exactly, or to first order at the library's nominal point) a sum of
-library terms (:mod:`.core.library`), their coefficients, per representation: the key of
+library terms (:mod:`..core.library`), their coefficients, per representation: the key of
 the hypothesis whose correction it is (``term:bath_energy``: a flow in W;
 ``property:wall_conductivity``: a relative change).  A method's coefficient has a
 counterpart only when it corrects in the same representation.  Which equations the
@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics import CellModel
-from ..variables import STATES
+from ...physics import CellModel
+from ...variables import STATES
 
 __all__ = ["TRUTHS", "Truth", "changed_equations", "correction_variables", "term_variables"]
 

@@ -1,0 +1,50 @@
+"""A case's measured-like data: training and held-out tables simulated with its true model."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+
+import pandas as pd
+
+from ... import seeds
+from ...observe import observe
+from ...physics import model_from_config
+from ...sensors import measure, sensor_sets_from_config
+from ...simulate import SimulationSettings, simulate_set
+from .shipped import HiddenEffectCase
+from .unshipped import find_case
+
+__all__ = ["case_tables"]
+
+
+def case_tables(
+    config: Mapping, case: str | HiddenEffectCase, sensors: str = "full"
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Training and held-out tables of a case (a shipped or unshipped one by name), simulated with its true model
+    and measured by the sensor set ``sensors`` of ``discovery.sensor_sets``.
+
+    A sensor that leaves its noise open gets the case's level: that fraction of its channel's
+    std over the data set (the full set is then every state with the case's noise).
+    """
+    case = find_case(case) if isinstance(case, str) else case
+    discovery = config["discovery"]
+    sensor_set = sensor_sets_from_config(discovery["sensor_sets"])[sensors]
+    settings = SimulationSettings.from_config(config["simulation"])
+    settings = replace(settings, steps=sensor_set.steps(settings.dt, settings.steps))
+    true, _ = case.models(model_from_config(config["physics"])[0])
+    tables = []
+    counts = (
+        ("train", sensor_set.trajectories or discovery["trajectories"]),
+        ("held_out", sensor_set.held_out_trajectories or discovery["held_out_trajectories"]),
+    )
+    for split, count in counts:
+        stream = f"discovery/{case.name}/{split}"
+        trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream)
+        x, u = trajectories.x, trajectories.u
+        values = observe(true, x, u, sensor_set.channels).reshape(-1, len(sensor_set.channels))
+        default = dict(zip(sensor_set.channels, case.noise * values.std(axis=0), strict=True))
+        noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
+        rng = seeds.numpy_generator(config["seed"], 0, noise)
+        tables.append(measure(true, x, u, settings.dt, sensor_set, rng, default))
+    return tables[0], tables[1]
