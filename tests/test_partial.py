@@ -364,6 +364,55 @@ def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves(
     assert _dispersion([]) == 1.0
 
 
+def test_terms_cannot_buy_a_name(monkeypatch):
+    """A correction's lead counts only where its closed form, cut to a rival's fewer terms, still
+    beats that rival by the margin: an 11-term form ahead by 300 BIC whose 3-term cut gains no more
+    than the 3-term rival is matched (undecided); a cut that keeps its lead is not; a cut that loses
+    a cell the rival holds is matched whatever its gain."""
+    from costa.discover import partial_search
+
+    n, samples = 4, 10_000
+    base = np.zeros(n)
+    cut_gain = {}
+    monkeypatch.setattr(partial_search, "_cut", lambda chosen, budget, model, settings: cut_gain[budget])
+
+    def candidate(key, terms, bic_gain, rescued=0):
+        return SimpleNamespace(hypothesis=SimpleNamespace(key=key), features=[None] * terms, bic_gain=bic_gain,
+                               rescued=rescued)  # fmt: skip
+
+    chosen = candidate("term:bath_energy", 11, 900.0)
+    rival = candidate("property:bath_conductivity", 3, 600.0)
+    # log-likelihood per cell such that the 3-term cut's BIC gain is 2 * sum - 3 log(samples)
+    per_cell = lambda bic: np.full(n, (bic + 3 * np.log(samples)) / (2 * n))  # noqa: E731
+    for cut_bic, matched in ((605.0, True), (615.0, False), (590.0, True)):
+        cut_gain[3] = per_cell(cut_bic)
+        (b,) = partial_search.at_budget(chosen, [rival], None, None, base, samples, margin=10.0)
+        assert (b.terms, b.matched) == (3, matched)
+        assert b.chosen_gain == pytest.approx(cut_bic) and b.rival_gain == 600.0
+    lost = per_cell(5000.0)
+    lost[0] = -np.inf  # the cut loses a cell that the base (and so the rival) holds
+    cut_gain[3] = lost
+    (b,) = partial_search.at_budget(chosen, [rival], None, None, base, samples, margin=10.0)
+    assert b.matched and b.chosen_gain == -np.inf
+
+
+def test_a_correction_that_removes_nearly_all_of_the_excess_is_named_with_its_form_incomplete():
+    """Hundreds of thousands of samples make a small form error significant: a correction that
+    leaves a channel flagged is still named where it removes the form_incomplete share of the
+    excess (and says so), not where it removes less, and never where a rival is as good."""
+    from costa.discover.estimator import ChannelTest
+    from costa.discover.partial_search import PartialRound
+
+    def round_(explained, identifiable=True):
+        flagged = [ChannelTest("U_cell", 1000, 1.3, 9.0, 0.0, 0.0, 0.0, True)]
+        chosen = SimpleNamespace(hypothesis="property:current_efficiency", explained=explained, tests_after=flagged)
+        return PartialRound(None, [], [], chosen, [], identifiable, None, "", form_share=0.9)
+
+    assert round_(0.97).named == "property:current_efficiency" and round_(0.97).form_incomplete
+    assert round_(0.6).named is None and not round_(0.6).form_incomplete
+    assert round_(0.97, identifiable=False).named is None
+
+
 @pytest.mark.integration
 def test_refined_coefficients_recover_a_hidden_flow_whose_terms_span_decades(default_config):
     """The settling alumina u1 (0.3 - 0.015 superheat) [kg/s], refined on three full-length partial
@@ -429,7 +478,7 @@ def test_each_round_tests_its_model_from_the_start_that_model_places_the_cell_at
         chosen = SimpleNamespace(
             hypothesis=SimpleNamespace(key=f"h{len(seen)}"), tests_after=[], placed=f"searched under {corrected}"
         )
-        return SimpleNamespace(named=chosen.hypothesis, chosen=chosen, corrected=corrected)
+        return SimpleNamespace(named=chosen.hypothesis, chosen=chosen, corrected=corrected, form_incomplete=False)
 
     monkeypatch.setattr(search, "discover_round", one_round)
     search.discover_partial("m0", "first", DiscoverySettings(max_rounds=3))

@@ -55,6 +55,7 @@ def _bath_energy_terms(result) -> dict[str, float]:
     return {t["term"]: t["value"] for t in result.fit.terms().get("x6", [])}
 
 
+@pytest.mark.integration  # a minute each: the whole peer fit on a case
 def test_pysindy_recovers_a_missing_flow(model, heat_loss_data, evaluation):
     x, u, dt = heat_loss_data
     result = pysindy_peer(model, x, u, dt, state_scale(x), evaluation, SMALL)
@@ -65,6 +66,7 @@ def test_pysindy_recovers_a_missing_flow(model, heat_loss_data, evaluation):
     assert result.grid["chosen"].sum() == 1 and set(result.grid.columns) >= {"window", "threshold", "terms"}
 
 
+@pytest.mark.integration  # a minute each: the whole peer fit on a case
 def test_ude_recovers_a_missing_flow(model, heat_loss_data, evaluation, default_config):
     x, u, dt = heat_loss_data
     config = copy.deepcopy(default_config)

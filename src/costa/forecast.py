@@ -14,13 +14,15 @@ count them as blow-ups, so a diverging rollout never stops the others.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
 
 from .integrate import STEPPERS
-from .models import NetworkModel
 from .physics import CellModel
+
+if TYPE_CHECKING:
+    from .models import NetworkModel
 
 __all__ = ["rollout_networks", "rollout_physics"]
 
@@ -59,9 +61,15 @@ def rollout_physics(
     return out
 
 
-@torch.inference_mode()
 def rollout_networks(model: NetworkModel, x_true: np.ndarray, u: np.ndarray, dt: float, copied: int = 3) -> np.ndarray:
     """Forecasts (E, T, K, 8) of every instance of a network model (forward Euler)."""
+    import torch  # here: the physics rollouts' jobs start without torch
+
+    with torch.inference_mode():
+        return _roll_networks(torch, model, x_true, u, dt, copied)
+
+
+def _roll_networks(torch, model: NetworkModel, x_true: np.ndarray, u: np.ndarray, dt: float, copied: int) -> np.ndarray:
     _check(x_true, u, copied)
     members = model.n_members
     out = np.empty((members, *x_true.shape), dtype=np.float64)

@@ -7,8 +7,6 @@ import os
 import sys
 from typing import Any
 
-import torch
-
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 
 
@@ -17,12 +15,14 @@ def configure(snakemake: Any) -> logging.Logger:
 
     torch ignores Snakemake's ``threads:``; two jobs with all cores each
     oversubscribe a small machine by 6-14x (measured on 2 cores), so the thread count is
-    set explicitly.
+    set explicitly: in torch if a job has imported it, else in the environment it reads
+    when it is first imported (jobs without networks never import it, 2-3 s each).
     """
     threads = max(1, int(snakemake.threads))
     for variable in THREAD_VARIABLES:
         os.environ[variable] = str(threads)
-    torch.set_num_threads(threads)
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(threads)
     logging.basicConfig(
         filename=snakemake.log[0] if snakemake.log else None,
         level=logging.INFO,

@@ -11,9 +11,12 @@ simulated.
 from __future__ import annotations
 
 import zlib
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
+
+if TYPE_CHECKING:
+    import torch
 
 
 def stream(seed: int, replicate: int, name: str, *index: int) -> np.random.SeedSequence:
@@ -29,5 +32,7 @@ def numpy_generator(seed: int, replicate: int, name: str, *index: int) -> np.ran
 
 def torch_generator(seed: int, replicate: int, name: str, *index: int) -> torch.Generator:
     """A CPU torch Generator on the named stream."""
+    import torch  # here, not at the top: jobs that draw no network weights start without torch (2-3 s)
+
     state = stream(seed, replicate, name, *index).generate_state(2, dtype=np.uint32)
     return torch.Generator().manual_seed(int(state[0]) << 32 | int(state[1]))

@@ -127,6 +127,17 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
         "verdict": r.verdict,
         "identifiable": r.identifiable,
         "unexplained_after_correction": r.unexplained,
+        "form_incomplete": r.form_incomplete,
+        "at_term_budget": [
+            {
+                "rival": b.rival,
+                "terms": b.terms,
+                "chosen_bic_gain": round(b.chosen_gain, 1) if np.isfinite(b.chosen_gain) else None,
+                "rival_bic_gain": round(b.rival_gain, 1),
+                "matched": b.matched,
+            }
+            for b in r.at_budget
+        ],
         "separated_by": r.separated_by,
         "misfit_after_best": round(r.dispersion, 3),
         "named": None,
@@ -395,6 +406,7 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
     if correction:
         reason = "not identifiable" if not r["identifiable"] else "unexplained"
         title = "Named" if r["named"] else f"Best-fitting correction (applied, not named: {reason})"
+        title += " (form incomplete)" if r.get("form_incomplete") else ""
         lines += [f"**{title}**: `{correction['hypothesis']}`: {correction['description']}", "",
                   f"Correction [{correction['unit']}]: `{correction['closed_form']}`", ""]  # fmt: skip
         lines += _coefficient_lines(correction)
@@ -405,6 +417,15 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
         ]
         if r["separated_by"]:
             lines.append(f"- measuring `{r['separated_by']}` would separate them")
+    if r.get("at_term_budget"):
+        lines += ["", "Against rivals with fewer terms, the correction cut to as many terms (named only if it still "
+                  "leads by the equivalence margin):"]  # fmt: skip
+        lines += [
+            f"- `{b['rival']}` ({b['terms']} terms, BIC gain {b['rival_bic_gain']:.0f}): cut, "
+            + ("lost on a cell" if b["chosen_bic_gain"] is None else f"{b['chosen_bic_gain']:.0f}")
+            + (", matched: undecided" if b["matched"] else ", still ahead")
+            for b in r["at_term_budget"]
+        ]
     if r.get("misfit_after_best", 1.0) > 1.0:
         lines += ["", f"The best correction still leaves a mean square innovation of {r['misfit_after_best']:.3g} "
                   f"(1 under a right model): BIC differences count {r['misfit_after_best']:.3g} times less as evidence."]  # fmt: skip

@@ -23,7 +23,14 @@ One round on the current model:
    of the electric power), the cause is named as on full data.  If not, the measurements
    cannot tell them apart: the round says so, names none, lists them and says which
    unmeasured channel would separate them; the best one still corrects the model for
-   forecasting, and the rounds stop there.
+   forecasting, and the rounds stop there;
+5. terms cannot buy a name: the chosen correction's closed form, cut to each rival's (fewer)
+   terms and refined again, must still beat that rival (of different physics) by the
+   equivalence margin, or the two are undecided as in 4 (:func:`at_budget`);
+6. a named correction whose closed form leaves a channel slightly disagreeing (hundreds of
+   thousands of samples make a small form error significant) stays named where it removes
+   ``form_incomplete`` of the flagged excess, and the verdict says "form incomplete" with what
+   is left; the rounds stop there.
 """
 
 from __future__ import annotations
@@ -63,7 +70,15 @@ from .likelihood import (
 from .observations import Observations
 from .observed import estimate_states
 
-__all__ = ["PartialRound", "discover_partial", "distinct_physics", "fit_outcome", "separating_channel"]
+__all__ = [
+    "BudgetComparison",
+    "PartialRound",
+    "at_budget",
+    "discover_partial",
+    "distinct_physics",
+    "fit_outcome",
+    "separating_channel",
+]
 
 log = logging.getLogger(__name__)
 
@@ -104,6 +119,20 @@ class PartialCandidate(FittedTerms):
         return self.score.hypothesis
 
 
+@dataclass(frozen=True)
+class BudgetComparison:
+    """The chosen correction against a rival of different physics with fewer terms, at the rival's
+    term budget: ``chosen_gain`` is the BIC gain of the chosen closed form cut to the rival's
+    ``terms`` strongest terms and refined again, ``rival_gain`` the rival's own; ``matched`` when
+    the cut form does not beat the rival by the equivalence margin (its lead was bought by terms)."""
+
+    rival: str
+    terms: int
+    chosen_gain: float
+    rival_gain: float
+    matched: bool
+
+
 @dataclass
 class PartialRound:
     """What one round on partial measurements found.
@@ -124,6 +153,8 @@ class PartialRound:
     separated_by: str | None
     verdict: str
     dispersion: float = 1.0
+    at_budget: list[BudgetComparison] = field(default_factory=list)
+    form_share: float = 1.0  # the share of the flagged excess a correction leaving channels flagged must remove
 
     @property
     def flagged(self) -> list[str]:
@@ -135,9 +166,18 @@ class PartialRound:
         return [t.channel for t in self.chosen.tests_after if t.flagged] if self.chosen is not None else []
 
     @property
+    def form_incomplete(self) -> bool:
+        """Named although its closed form leaves channels disagreeing (it removes nearly all of their excess)."""
+        return self.named is not None and bool(self.unexplained)
+
+    @property
     def named(self) -> Hypothesis | None:
-        """The chosen explanation, where the measurements tell it from the others and it explains them."""
-        if self.chosen is None or not self.identifiable or self.unexplained:
+        """The chosen explanation, where the measurements tell it from the others, no rival matches it
+        with as many terms, and it explains the channels (all of them, or nearly all of their excess:
+        ``form incomplete``)."""
+        if self.chosen is None or not self.identifiable:
+            return None
+        if self.unexplained and self.chosen.explained < self.form_share:
             return None
         return self.chosen.hypothesis
 
@@ -389,6 +429,52 @@ def _fit(
     return candidate
 
 
+def _cut(candidate: PartialCandidate, budget: int, model: CellModel, settings: DiscoverySettings) -> np.ndarray:
+    """Per-trajectory log-likelihood (n,) of ``candidate``'s closed form cut to its ``budget``
+    strongest terms (largest |coefficient| over its posterior spread), refined again on the
+    measured channels and scored from the start the cut model searches itself."""
+    h, samples = candidate.hypothesis, candidate.samples
+    strength = np.abs(candidate.coefficients) / (samples.std(axis=0) + 1e-300)
+    keep = np.sort(np.argsort(-strength, kind="stable")[:budget])
+    features, coefficients = [candidate.features[i] for i in keep], candidate.coefficients[keep]
+    width = np.maximum(0.5 * np.abs(coefficients), 5 * samples[:, keep].std(axis=0)) + 1e-300
+    refined = refine_coefficients(model, h, features, coefficients, width, candidate.placed)
+    if refined is not None:
+        coefficients = refined[0]
+    corrected = h.corrected(model, features, coefficients)
+    _, after = _tests(corrected, candidate.placed.searched_again(corrected), settings, backward=False)
+    return after.log_likelihood
+
+
+def at_budget(
+    chosen: PartialCandidate,
+    rivals: Sequence[PartialCandidate],
+    model: CellModel,
+    settings: DiscoverySettings,
+    base_likelihood: np.ndarray,
+    samples: int,
+    margin: float,
+) -> list[BudgetComparison]:
+    """The chosen correction against each rival with fewer terms, at the rival's budget (one cut
+    form per budget): a lead that a closed form's extra terms bought does not name it.  A rival
+    the cut form does not beat by ``margin`` BIC (or that holds more lost trajectories) is
+    ``matched``."""
+    budgets = sorted({len(r.features) for r in rivals})
+    cuts = {b: _cut(chosen, b, model, settings) for b in budgets}
+    comparisons = []
+    for rival in rivals:
+        b = len(rival.features)
+        (gain,), (held,) = likelihood_gains(cuts[b][None], base_likelihood)
+        chosen_gain = 2 * gain - b * np.log(samples) if np.isfinite(gain) else -np.inf
+        matched = bool(held < rival.rescued or chosen_gain - rival.bic_gain <= margin)
+        comparisons.append(BudgetComparison(rival.hypothesis.key, b, float(chosen_gain), rival.bic_gain, matched))
+        log.info(
+            "%s cut to %d terms: BIC gain %.1f against %s's %.1f%s",
+            chosen.hypothesis.key, b, chosen_gain, rival.hypothesis.key, rival.bic_gain, " (matched)" * matched,
+        )  # fmt: skip
+    return comparisons
+
+
 def _score(candidates: Sequence[PartialCandidate], base_likelihood: np.ndarray, samples: int) -> None:
     """Each fitted candidate's BIC gain over the uncorrected model on ``samples`` measured values, and
     the trajectories it holds where the uncorrected filter diverged (:func:`.likelihood.likelihood_gains`)."""
@@ -446,25 +532,58 @@ def discover_round(
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
     chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
     different = [c for c in equivalent if not _same_physics(c, chosen, model, x[:, ::16], obs.u[:, ::16])]
+    fewer = [
+        c
+        for c in ranking
+        if c is not chosen
+        and c not in equivalent
+        and 0 < len(c.features) < len(chosen.features)
+        and np.isfinite(c.bic_gain)
+        and not _same_physics(c, chosen, model, x[:, ::16], obs.u[:, ::16])
+    ]
+    samples = int(np.isfinite(obs.y).sum())
+    margin = settings.equivalence * dispersion
+    budget = at_budget(chosen, fewer, model, settings, base.log_likelihood, samples, margin) if fewer else []
+    matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
+    undecided = different + matched
     separated = None
-    if different:
-        histories = [c.smoothed.mean[..., :8] for c in [chosen, *different]]
+    if undecided:
+        histories = [c.smoothed.mean[..., :8] for c in [chosen, *undecided]]
         separated = separating_channel(histories, obs.u, model, obs.channels)
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
-    if different:
-        keys = ", ".join(c.hypothesis.key for c in [chosen, *different])
+    if undecided:
+        keys = ", ".join(c.hypothesis.key for c in [chosen, *undecided])
         what = f"not identifiable: {keys} explain the measured channels equally well"
+        if matched:
+            what += " (" + "; ".join(_budget_words(chosen, b) for b in budget if b.matched) + ")"
         what += f"; measuring {separated} would separate them" if separated else ""
-    elif unexplained:
+    elif unexplained and chosen.explained < settings.form_incomplete:
         what = (
             f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {unexplained} disagreeing beyond "
             "noise, so what is missing may be an explanation that did not fit here or more than one effect"
         )
     else:
         what = chosen.hypothesis.describe(model)
+        if unexplained:
+            left = ", ".join(f"{t.channel} at {t.chi2_per_dof:.3g}" for t in chosen.tests_after if t.flagged)
+            what += (
+                f" (form incomplete: its closed form leaves {left} times the noise variance, "
+                f"{1 - chosen.explained:.1%} of the flagged channels' excess)"
+            )
     effect = removal(chosen.explained, "the flagged channels' excess")
     verdict = f"{what}; the correction {effect}"
-    return PartialRound(model, tests, ranking, chosen, equivalent, not different, separated, verdict, dispersion)
+    return PartialRound(
+        model, tests, ranking, chosen, equivalent, not undecided, separated, verdict, dispersion, budget,
+        settings.form_incomplete,
+    )  # fmt: skip
+
+
+def _budget_words(chosen: PartialCandidate, b: BudgetComparison) -> str:
+    """One budget comparison in words."""
+    return (
+        f"cut to {b.terms} term{'s' * (b.terms > 1)}, {chosen.hypothesis.key} gains {b.chosen_gain:.0f} BIC "
+        f"against {b.rival}'s {b.rival_gain:.0f}"
+    )
 
 
 def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySettings) -> list[PartialRound]:
@@ -482,7 +601,7 @@ def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySet
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
         found = discover_round(current, placed, settings, rng, rich, named)
         rounds.append(found)
-        if found.named is None:
+        if found.named is None or found.form_incomplete:
             break
         current, placed = found.corrected, found.chosen.placed
         rich = any(t.flagged for t in found.chosen.tests_after)
