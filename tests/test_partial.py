@@ -369,7 +369,7 @@ def test_terms_cannot_buy_a_name(monkeypatch):
     beats that rival by the margin: an 11-term form ahead by 300 BIC whose 3-term cut gains no more
     than the 3-term rival is matched (undecided); a cut that keeps its lead is not; a cut that loses
     a cell the rival holds is matched whatever its gain."""
-    from costa.discover import partial_search
+    from costa.discover.sparse import search as partial_search
 
     n, samples = 4, 10_000
     base = np.zeros(n)
@@ -400,8 +400,8 @@ def test_a_correction_that_removes_nearly_all_of_the_excess_is_named_with_its_fo
     """Hundreds of thousands of samples make a small form error significant: a correction that
     leaves a channel flagged is still named where it removes the form_incomplete share of the
     excess (and says so), not where it removes less, and never where a rival is as good."""
-    from costa.discover.estimator import ChannelTest
-    from costa.discover.partial_search import PartialRound
+    from costa.discover.sparse.estimator import ChannelTest
+    from costa.discover.sparse.search import PartialRound
 
     def round_(explained, identifiable=True):
         flagged = [ChannelTest("U_cell", 1000, 1.3, 9.0, 0.0, 0.0, 0.0, True)]
