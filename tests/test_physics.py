@@ -352,3 +352,61 @@ def test_the_printed_table_cannot_take_a_cell():
 
     with pytest.raises(ConfigError, match="physics.cell sets material data, but physics.constants = paper_printed"):
         load_config(overrides={"physics": {"constants": "paper_printed", "cell": {"ledge_area": 20.0}}})
+
+
+# Faraday's law, from the constants' published values: F (CODATA 2018, exact), M(Al) and M(Al2O3) [kg/mol]
+FARADAY, M_AL, M_AL2O3 = 96485.33212, 0.026981538, 0.1019613
+
+
+def _cell_params(**cell):
+    from costa.config import load_config
+    from costa.physics import model_from_config
+
+    return model_from_config(load_config(overrides={"physics": {"cell": cell}})["physics"])[0].params
+
+
+def test_a_cell_at_full_current_efficiency_makes_faradays_metal():
+    """CE = 1: k6 = M(Al)/(3F) (0.3356 g of aluminium per ampere-hour) and k3 = M(Al2O3)/(6F)."""
+    params = _cell_params(current_efficiency=1.0)
+    assert params.k6 == pytest.approx(M_AL / (3 * FARADAY), rel=1e-12)
+    assert params.k3 == pytest.approx(M_AL2O3 / (6 * FARADAY), rel=1e-12)
+    assert params.k6 * 3600 * 1000 == pytest.approx(0.3356, abs=5e-5)  # g/(A h), the electrochemical equivalent
+
+
+@pytest.mark.parametrize("efficiency", [0.5, 0.93, 0.95, 1.0])
+def test_alumina_used_per_metal_made_is_the_stoichiometry_at_any_efficiency(efficiency):
+    """2 Al2O3 -> 4 Al: 1.8895 kg of alumina per kg of metal, whatever share of the current makes metal;
+    the efficiency scales both, and changes no other constant."""
+    params = _cell_params(current_efficiency=efficiency)
+    assert params.k3 / params.k6 == pytest.approx(M_AL2O3 / (2 * M_AL), rel=1e-12)
+    assert params.k3 / params.k6 == pytest.approx(1.8895, abs=1e-4)
+    assert params.k6 == pytest.approx(efficiency * M_AL / (3 * FARADAY), rel=1e-12)
+    differ = {k for k in AUTHORS_CODE_CONSTANTS if getattr(params, k) != AUTHORS_CODE_CONSTANTS[k]}
+    assert differ == {"k3", "k6"}
+
+
+def test_the_replication_keeps_the_coded_half_of_faradays_metal():
+    """No current efficiency (the default config): the authors' numbers exactly, k6 = 47.5 % of Faraday's."""
+    params = _cell_params()
+    assert (params.k3, params.k6) == (1.7e-7, 4.43e-8)
+    assert params.k6 / (M_AL / (3 * FARADAY)) == pytest.approx(0.475, abs=1e-3)
+
+
+def test_the_constants_table_names_faradays_law_and_overrides_still_win():
+    from costa.config import load_config
+    from costa.physics import constants_table
+
+    cell = {"current_efficiency": 0.95}
+    physics = load_config(overrides={"physics": {"cell": cell, "overrides": {"k3": 1.7e-7}}})["physics"]
+    table = constants_table(physics).set_index("constant")
+    assert table.loc["k6", "source"] == "Faraday's law: current_efficiency M(Al) / (3 F)"
+    assert table.loc["k6", "value"] == pytest.approx(8.855e-8, rel=1e-4)
+    assert table.loc["k3", ["value", "source"]].tolist() == [1.7e-7, "override"]
+
+
+@pytest.mark.parametrize("efficiency", [0.4, 1.05])
+def test_a_current_efficiency_out_of_bounds_is_named(efficiency):
+    from costa.config import ConfigError, load_config
+
+    with pytest.raises(ConfigError, match="physics.cell.current_efficiency"):
+        load_config(overrides={"physics": {"cell": {"current_efficiency": efficiency}}})

@@ -13,7 +13,10 @@ meaning; :func:`constants_table` lists a cell's constants with where they come f
 
 Your own cell: the config's ``physics.cell`` section sets the fields of
 :class:`MaterialProperties`, from which the constants are derived exactly as for
-the paper's cell; ``physics.overrides`` then replaces single constants.
+the paper's cell; ``physics.overrides`` then replaces single constants.  A cell that
+gives its current efficiency gets k3 and k6 from Faraday's law
+(:func:`faraday_constants`); without it they stay the authors' numbers, which make
+half of Faraday's metal (``docs/errata.md`` #31).
 """
 
 from __future__ import annotations
@@ -25,12 +28,19 @@ from typing import Any
 
 import pandas as pd
 
+#: Faraday's constant [C/mol] (CODATA 2018; exact in the SI since 2019)
+FARADAY = 96485.33212
+#: molar masses of aluminium and alumina [kg/mol] (NIST Chemistry WebBook: 26.981538 and 101.9613 g/mol)
+MOLAR_MASS_AL = 0.026981538
+MOLAR_MASS_AL2O3 = 0.1019613
+
 __all__ = [
     "CONSTANTS",
     "CellParameters",
     "MaterialProperties",
     "authors_code_parameters",
     "constants_table",
+    "faraday_constants",
     "paper_printed_parameters",
     "parameters_from_config",
 ]
@@ -42,10 +52,12 @@ class MaterialProperties:
 
     Units: conductivities in W/(m K), lengths in m, heat transfer coefficients in
     W/(m^2 K), areas in m^2, density in kg/m^3, enthalpy in J/kg, specific heat
-    capacities in J/(kg K), the wall's heat capacity in J/K, temperatures in degC.
+    capacities in J/(kg K), the wall's heat capacity in J/K, temperatures in degC,
+    the current efficiency as a fraction (0.95 = 95 %).
     The defaults are the paper's cell; the authors' code gives k0, k16, k17, alpha
-    and beta as numbers, whose physical values are the last five fields (the
+    and beta as numbers, whose physical values are the next five fields (the
     reciprocals are exact: 1 / (1 / 5.66e-4) == 5.66e-4 in float64).
+    ``current_efficiency`` None keeps the code's k3 and k6.
     """
 
     ledge_conductivity: float = 2.5  # k_sl
@@ -62,6 +74,7 @@ class MaterialProperties:
     ledge_heat_capacity: float = 1319.2612137203166  # c_p,sl = 1 / beta, beta = 7.58e-4
     wall_heat_capacity: float = 1666666.6666666667  # C_wall = 1 / k17, k17 = 6e-7
     ambient_temperature: float = 35.0  # T_0 = k16
+    current_efficiency: float | None = None  # CE: k3 and k6 by Faraday's law where given
 
 
 @dataclass(frozen=True)
@@ -113,20 +126,23 @@ def authors_code_parameters(
 ) -> CellParameters:
     """The constants as the authors' simulator computes them (the default), for any cell's ``material``.
 
-    k3..k6 (the electrochemistry: consumption and production per ampere, the
-    alumina's impurity) do not depend on the cell and stay the code's numbers.
+    k4 and k5 (the alumina's impurity) stay the code's numbers.  k3 and k6 (alumina
+    used and metal made per ampere) too, unless the cell gives its current efficiency:
+    then they follow Faraday's law (:func:`faraday_constants`).
     """
     m = material
     k1 = 2 * m.ledge_conductivity * m.ledge_area / m.cryolite_fusion_enthalpy
     k2 = m.bath_ledge_heat_transfer * m.ledge_area / m.cryolite_fusion_enthalpy
+    per_ampere = {"k3": 1.7e-7, "k6": 4.43e-8}
+    if m.current_efficiency is not None:
+        per_ampere = faraday_constants(m.current_efficiency)
     return CellParameters(
         k0=1 / (m.ledge_density * m.ledge_area),
         k1=k1,
         k2=k2,
-        k3=1.7e-7,
         k4=0.02,
         k5=0.03,
-        k6=4.43e-8,
+        **per_ampere,
         k7=k2 * m.liquid_cryolite_heat_capacity,
         k8=k1 * m.liquid_cryolite_heat_capacity,
         k9=m.ledge_area,
@@ -142,6 +158,18 @@ def authors_code_parameters(
         alpha=1 / m.bath_heat_capacity,
         beta=1 / m.ledge_heat_capacity,
     )
+
+
+def faraday_constants(current_efficiency: float) -> dict[str, float]:
+    """k3 and k6 [kg/(A s)] of a cell with this current efficiency [-], by Faraday's law.
+
+    Each Al atom takes 3 electrons, so an ampere makes CE M(Al) / (3 F) of metal (k6)
+    and uses half a mole of Al2O3 per mole of Al, CE M(Al2O3) / (6 F) (k3).
+    """
+    return {
+        "k3": current_efficiency * MOLAR_MASS_AL2O3 / (6 * FARADAY),
+        "k6": current_efficiency * MOLAR_MASS_AL / (3 * FARADAY),
+    }
 
 
 def paper_printed_parameters() -> CellParameters:
@@ -224,17 +252,25 @@ CONSTANTS: dict[str, tuple[str, str, str]] = {
     "critical_alumina_percent": ("%", "alumina content of the anode effect (in g3)", ""),
 }  # fmt: skip
 
+#: how k3 and k6 derive where ``physics.cell.current_efficiency`` is given (else they are fixed numbers)
+FARADAY_DERIVATION = {
+    "k3": "Faraday's law: current_efficiency M(Al2O3) / (6 F)",
+    "k6": "Faraday's law: current_efficiency M(Al) / (3 F)",
+}
+
 
 def constants_table(physics: Mapping[str, Any]) -> pd.DataFrame:
     """The constants of a config's ``physics`` section: constant, value, unit, meaning, source.
 
-    ``source`` is the derivation from ``physics.cell`` (constants: authors_code),
-    "override" (``physics.overrides``), "fixed" (a number of the authors' code) or
-    "printed" (constants: paper_printed).
+    ``source`` is the derivation from ``physics.cell`` (constants: authors_code; k3
+    and k6 by Faraday's law where the cell gives its current efficiency), "override"
+    (``physics.overrides``), "fixed" (a number of the authors' code) or "printed"
+    (constants: paper_printed).
     """
     overrides = physics.get("overrides") or {}
     params = parameters_from_config(physics["constants"], overrides, physics.get("cell"))
     derived = physics["constants"] == "authors_code"
+    faraday = (physics.get("cell") or {}).get("current_efficiency") is not None
     rows = []
     for name, value in params.as_dict().items():
         unit, meaning, formula = CONSTANTS[name]
@@ -242,6 +278,8 @@ def constants_table(physics: Mapping[str, Any]) -> pd.DataFrame:
             source = "override"
         elif not derived:
             source = "printed"
+        elif faraday and name in FARADAY_DERIVATION:
+            source = FARADAY_DERIVATION[name]
         else:
             source = formula or "fixed"
         rows.append({"constant": name, "value": value, "unit": unit, "meaning": meaning, "source": source})
