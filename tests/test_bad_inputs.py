@@ -102,6 +102,12 @@ def _one_trajectory(t):
     return t[t.trajectory == 0]
 
 
+def _pot_voltage_in_millivolts(t):
+    t = t.assign(U_pot=4.2)
+    t.loc[12, "U_pot"] = 4200.0
+    return t
+
+
 # (name, file name, how the good table is spoilt (or the file's text), what the one line must say)
 DATA = [
     ("missing input column", "cell.csv", _drop_u3, "cell.csv: missing column(s) ['u3']"),
@@ -118,6 +124,8 @@ DATA = [
      "cell.csv: rows of a trajectory must be contiguous (trajectory 0 reappears at row 500)"),
     ("negative mass", "cell.csv", _set("x2", 120, -5.0),
      "cell.csv: column 'x2' (Al2O3 mass) must be positive, row 120 has -5.0"),
+    ("pot voltage in millivolts", "cell.csv", _pot_voltage_in_millivolts,
+     "cell.csv: column 'U_pot' (pot voltage) must lie in 2.5-7 V where sampled, row 12 has 4200"),
     ("a single trajectory", "cell.csv", _one_trajectory,
      "cell.csv: discovery needs at least 2 trajectories (one is held out to measure the gap), found 1"),
     ("empty file", "cell.csv", "", "cell.csv: the file is empty"),

@@ -292,14 +292,16 @@ AUTHORS_CODE_CONSTANTS = {
     "beta": 0.000758,
     "critical_alumina_percent": 2.2,
 }
+#: ... and the default cell's pot voltage beyond the bath (channel U_pot): back EMF [V], resistance [ohm]
+DEFAULT_CELL_CONSTANTS = AUTHORS_CODE_CONSTANTS | {"E0": 1.8, "R_ext": 6.8e-6}
 
 
 def test_the_default_cell_gives_the_authors_constants_bit_for_bit():
     from costa.config import load_config
     from costa.physics import model_from_config
 
-    assert authors_code_parameters().as_dict() == AUTHORS_CODE_CONSTANTS
-    assert model_from_config(load_config()["physics"])[0].params.as_dict() == AUTHORS_CODE_CONSTANTS
+    assert authors_code_parameters().as_dict() == DEFAULT_CELL_CONSTANTS
+    assert model_from_config(load_config()["physics"])[0].params.as_dict() == DEFAULT_CELL_CONSTANTS
 
 
 @pytest.mark.parametrize(
@@ -311,6 +313,8 @@ def test_the_default_cell_gives_the_authors_constants_bit_for_bit():
         ("ambient_temperature", 20.0, {"k16": 20.0}),
         ("wall_heat_capacity", 2.0e6, {"k17": 5e-7}),
         ("bath_heat_capacity", 2000.0, {"alpha": 5e-4}),
+        ("back_emf", 1.7, {"E0": 1.7}),
+        ("external_resistance", 5e-6, {"R_ext": 5e-6}),
     ],
 )
 def test_a_cell_property_changes_exactly_the_constants_it_enters(field, value, changed):
@@ -319,7 +323,7 @@ def test_a_cell_property_changes_exactly_the_constants_it_enters(field, value, c
     from costa.physics import model_from_config
 
     params = model_from_config(load_config(overrides={"physics": {"cell": {field: value}}})["physics"])[0].params
-    differ = {k for k, v in params.as_dict().items() if v != AUTHORS_CODE_CONSTANTS[k]}
+    differ = {k for k, v in params.as_dict().items() if v != DEFAULT_CELL_CONSTANTS[k]}
     assert differ == set(changed)
     for name, expected in changed.items():
         if expected is not None:

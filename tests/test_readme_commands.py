@@ -98,7 +98,7 @@ def _template_id(template) -> str:
 
 def template_table(config: dict) -> pd.DataFrame:
     """A trajectory table of the shape a template describes: the worked example's cell (6 trajectories x 400
-    steps); every state at every step where the template declares no sensor noise, else the cell voltage at
+    steps); every state at every step where the template declares no sensor noise, else the pot voltage at
     every step and the declared channels every 50 steps, empty in between."""
     table = pd.read_csv(EXAMPLE_CSV)
     noise = config["discovery"]["user_data"].get("noise") or {}
@@ -109,12 +109,12 @@ def template_table(config: dict) -> pd.DataFrame:
     from costa.physics import true_model
 
     x, u = arrays(table)
-    channels = ["U_cell", *noise]
+    channels = ["U_pot", *noise]
     values = observe(true_model(), x, u, channels).reshape(-1, len(channels))
     measured = table[["trajectory", "time_s", "u1", "u2", "u3", "u4", "u5"]].copy()
     sampled = table.groupby("trajectory").cumcount().to_numpy() % 50 == 0
     for c, name in enumerate(channels):
-        measured[name] = values[:, c] if name == "U_cell" else np.where(sampled, values[:, c], np.nan)
+        measured[name] = values[:, c] if name == "U_pot" else np.where(sampled, values[:, c], np.nan)
     return measured
 
 

@@ -13,7 +13,9 @@ meaning; :func:`constants_table` lists a cell's constants with where they come f
 
 Your own cell: the config's ``physics.cell`` section sets the fields of
 :class:`MaterialProperties`, from which the constants are derived exactly as for
-the paper's cell; ``physics.overrides`` then replaces single constants.  A cell that
+the paper's cell; ``physics.overrides`` then replaces single constants.  E0 and
+R_ext, the pot voltage's parts beyond the bath (channel ``U_pot``, :mod:`costa.observe`),
+enter no balance.  A cell that
 gives its current efficiency gets k3 and k6 from Faraday's law
 (:func:`faraday_constants`); without it they stay the authors' numbers, which make
 half of Faraday's metal (``docs/errata.md`` #31).
@@ -53,11 +55,14 @@ class MaterialProperties:
     Units: conductivities in W/(m K), lengths in m, heat transfer coefficients in
     W/(m^2 K), areas in m^2, density in kg/m^3, enthalpy in J/kg, specific heat
     capacities in J/(kg K), the wall's heat capacity in J/K, temperatures in degC,
-    the current efficiency as a fraction (0.95 = 95 %).
+    the current efficiency as a fraction (0.95 = 95 %), the back EMF in V and the
+    external resistance in ohm.
     The defaults are the paper's cell; the authors' code gives k0, k16, k17, alpha
     and beta as numbers, whose physical values are the next five fields (the
     reciprocals are exact: 1 / (1 / 5.66e-4) == 5.66e-4 in float64).
-    ``current_efficiency`` None keeps the code's k3 and k6.
+    ``current_efficiency`` None keeps the code's k3 and k6.  ``back_emf`` and
+    ``external_resistance`` are typical values (docs/model.md §2, "The pot voltage") that
+    make a pot voltage of 4.2 V at 140 kA for the paper's cell.
     """
 
     ledge_conductivity: float = 2.5  # k_sl
@@ -75,6 +80,8 @@ class MaterialProperties:
     wall_heat_capacity: float = 1666666.6666666667  # C_wall = 1 / k17, k17 = 6e-7
     ambient_temperature: float = 35.0  # T_0 = k16
     current_efficiency: float | None = None  # CE: k3 and k6 by Faraday's law where given
+    back_emf: float = 1.8  # E0: reversible 1.2 V + anode 0.5 V + cathode 0.1 V over-voltage
+    external_resistance: float = 6.8e-6  # R_ext: anode 0.3 V + cathode 0.45 V + bus bars 0.2 V at 140 kA
 
 
 @dataclass(frozen=True)
@@ -83,7 +90,8 @@ class CellParameters:
 
     Units and meanings are in :data:`CONSTANTS`; :mod:`costa.physics.parts` and
     :mod:`costa.physics.model` show each constant's role in the equations.
-    ``critical_alumina_percent`` is c_x2,crit in percent (2.2).
+    ``critical_alumina_percent`` is c_x2,crit in percent (2.2).  ``E0`` [V] and
+    ``R_ext`` [ohm] make the pot voltage U + E0 + R_ext u2 (:mod:`costa.observe`).
     """
 
     k0: float
@@ -107,6 +115,8 @@ class CellParameters:
     k18: float
     alpha: float
     beta: float
+    E0: float
+    R_ext: float
     critical_alumina_percent: float = 2.2
 
     def replace(self, **changes: float) -> CellParameters:
@@ -157,6 +167,8 @@ def authors_code_parameters(
         k18=1 / m.wall_ambient_heat_transfer,
         alpha=1 / m.bath_heat_capacity,
         beta=1 / m.ledge_heat_capacity,
+        E0=m.back_emf,
+        R_ext=m.external_resistance,
     )
 
 
@@ -173,7 +185,9 @@ def faraday_constants(current_efficiency: float) -> dict[str, float]:
 
 
 def paper_printed_parameters() -> CellParameters:
-    """The constants exactly as printed in the paper's Table 2 (rounded)."""
+    """The constants exactly as printed in the paper's Table 2 (rounded); E0 and R_ext, which the
+    paper does not have, are the default cell's."""
+    cell = MaterialProperties()
     return CellParameters(
         k0=2e-5,
         k1=7.5e-4,
@@ -196,6 +210,8 @@ def paper_printed_parameters() -> CellParameters:
         k18=0.04,
         alpha=5.66e-4,
         beta=7.58e-4,
+        E0=cell.back_emf,
+        R_ext=cell.external_resistance,
     )
 
 
@@ -249,8 +265,12 @@ CONSTANTS: dict[str, tuple[str, str, str]] = {
     "k18": ("m^2 K/W", "wall-ambient thermal resistance", "1 / wall_ambient_heat_transfer"),
     "alpha": ("kg K/J", "inverse specific heat capacity of the bath", "1 / bath_heat_capacity"),
     "beta": ("kg K/J", "inverse specific heat capacity of the ledge", "1 / ledge_heat_capacity"),
+    "E0": ("V", "back EMF: reversible voltage and over-voltages, in the pot voltage U_pot", "back_emf"),
+    "R_ext": ("ohm", "resistance of anodes, cathode and bus bars, in the pot voltage U_pot", "external_resistance"),
     "critical_alumina_percent": ("%", "alumina content of the anode effect (in g3)", ""),
 }  # fmt: skip
+#: constants of this project's own, not in the paper's Table 2 (derived from the cell with either preset)
+NOT_PRINTED = ("E0", "R_ext")
 
 #: how k3 and k6 derive where ``physics.cell.current_efficiency`` is given (else they are fixed numbers)
 FARADAY_DERIVATION = {
@@ -276,7 +296,7 @@ def constants_table(physics: Mapping[str, Any]) -> pd.DataFrame:
         unit, meaning, formula = CONSTANTS[name]
         if name in overrides:
             source = "override"
-        elif not derived:
+        elif not derived and name not in NOT_PRINTED:
             source = "printed"
         elif faraday and name in FARADAY_DERIVATION:
             source = FARADAY_DERIVATION[name]
