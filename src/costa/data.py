@@ -360,7 +360,7 @@ def _check_layout(path: Path, table: pd.DataFrame) -> None:
             if separator in header:
                 raise TrajectoryDataError(
                     f"{path}: the header {header[:60]!r} is one column separated by {name}; "
-                    "a CSV trajectory table is separated by commas"
+                    "a CSV table is separated by commas"
                 )
     if table.empty:
         raise TrajectoryDataError(f"{path}: the table has columns but no rows")
