@@ -1,7 +1,8 @@
 """A catalogue of bad inputs: each stops the README's smoke command in one line and changes no result.
 
-Every entry is a config (merged over config/smoke.yaml) or a measurement file for
-discovery (named by ``discovery.user_data``) that must end the run with a non-zero
+Every entry is a config (merged over config/smoke.yaml), a measurement file for
+discovery (named by ``discovery.user_data``) or an events file beside good measurements
+(``discovery.user_data.events``) that must end the run with a non-zero
 exit, one line naming the key, or the file, column and row, and every file under
 ``results/`` byte for byte as it was. The checks run when the workflow starts
 (the Snakefile), so nothing is scheduled.
@@ -102,6 +103,12 @@ def _one_trajectory(t):
     return t[t.trajectory == 0]
 
 
+def _pot_voltage_in_millivolts(t):
+    t = t.assign(U_pot=4.2)
+    t.loc[12, "U_pot"] = 4200.0
+    return t
+
+
 # (name, file name, how the good table is spoilt (or the file's text), what the one line must say)
 DATA = [
     ("missing input column", "cell.csv", _drop_u3, "cell.csv: missing column(s) ['u3']"),
@@ -118,6 +125,8 @@ DATA = [
      "cell.csv: rows of a trajectory must be contiguous (trajectory 0 reappears at row 500)"),
     ("negative mass", "cell.csv", _set("x2", 120, -5.0),
      "cell.csv: column 'x2' (Al2O3 mass) must be positive, row 120 has -5.0"),
+    ("pot voltage in millivolts", "cell.csv", _pot_voltage_in_millivolts,
+     "cell.csv: column 'U_pot' (pot voltage) must lie in 2.5-7 V where sampled, row 12 has 4200"),
     ("a single trajectory", "cell.csv", _one_trajectory,
      "cell.csv: discovery needs at least 2 trajectories (one is held out to measure the gap), found 1"),
     ("empty file", "cell.csv", "", "cell.csv: the file is empty"),
@@ -129,8 +138,17 @@ DATA = [
     ("unknown format", "cell.xlsx", "PK\x03\x04", "cell.xlsx: unknown format '.xlsx'; use .parquet or .csv"),
 ]  # fmt: skip
 
-CASES = [pytest.param(text, message, None, None, id=name) for name, text, message in CONFIGS]
-CASES += [pytest.param(None, message, file, spoil, id=name) for name, file, spoil, message in DATA]
+# (name, the events table next to the good measurements (discovery.user_data.events), what the one line must say)
+EVENTS = [
+    ("event after the record", "trajectory,time_s,kind,amount_kg,duration_s\n0,3990,tap,1000,600\n",
+     "events.csv: column 'time_s' at row 0: the tap from 3990 s to 4590 s lies outside trajectory 0 of"),
+    ("unknown event kind", "trajectory,time_s,kind,amount_kg\n0,60,alumina_dose,1.8\n1,60,anode_change,900\n",
+     "events.csv: column 'kind' has the unknown kind 'anode_change' at row 1; known: tap, alf3_addition, alumina_dose"),
+]  # fmt: skip
+
+CASES = [pytest.param(text, message, None, None, None, id=name) for name, text, message in CONFIGS]
+CASES += [pytest.param(None, message, file, spoil, None, id=name) for name, file, spoil, message in DATA]
+CASES += [pytest.param(None, message, "cell.csv", lambda t: t, events, id=name) for name, events, message in EVENTS]
 
 
 @pytest.fixture(scope="module")
@@ -152,11 +170,17 @@ def _write(folder, file, spoil, good_table) -> None:
         path.write_text(spoil)
 
 
-@pytest.mark.parametrize(("config", "message", "file", "spoil"), CASES)
-def test_bad_input_stops_in_one_line_and_keeps_results(smoke_run, good_table, tmp_path, config, message, file, spoil):
+@pytest.mark.parametrize(("config", "message", "file", "spoil", "events"), CASES)
+def test_bad_input_stops_in_one_line_and_keeps_results(
+    smoke_run, good_table, tmp_path, config, message, file, spoil, events
+):
     if file is not None:
         _write(tmp_path, file, spoil, good_table)
-        config = f"discovery: {{user_data: {{path: {tmp_path / file}, name: cell}}}}"
+        user = f"path: {tmp_path / file}, name: cell"
+        if events is not None:
+            (tmp_path / "events.csv").write_text(events)
+            user += f", events: {tmp_path / 'events.csv'}"
+        config = f"discovery: {{user_data: {{{user}}}}}"
     bad = tmp_path / "bad.yaml"
     bad.write_text(config + "\n")
     before = file_hashes(smoke_run / "results")

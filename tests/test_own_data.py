@@ -80,6 +80,44 @@ def test_a_sparse_table_takes_the_estimator_route_and_needs_its_sensors_noise(ex
         run_discovery(example_config, train, held_out, starting_model(example_config, "full"), "cell", str(path))
 
 
+def _pot_voltage_log(example_config, path, spoil=None):
+    """The example cell as a pot line logs it: the inputs and the pot voltage U_pot at every step."""
+    from costa.data import arrays
+    from costa.observe import observe
+
+    table = pd.read_csv(EXAMPLE / "cell.csv")
+    x, u = arrays(table)
+    logged = table[["trajectory", "time_s", "u1", "u2", "u3", "u4", "u5"]].copy()
+    logged["U_pot"] = observe(starting_model(example_config, "full"), x, u, ["U_pot"]).ravel()
+    (spoil or (lambda t: t))(logged).to_csv(path, index=False)
+    return path
+
+
+def test_a_pot_voltage_log_is_a_channel(example_config, tmp_path):
+    from costa.data import channel_report, measured_trajectories
+
+    table = load_trajectories(_pot_voltage_log(example_config, tmp_path / "pot.csv"))
+    report = channel_report(table).set_index("channel")
+    assert report.loc["U_pot", ["status", "unit", "interval_s"]].tolist() == ["every step", "V", 10.0]
+    measured = measured_trajectories(table)
+    assert measured.channels == ("U_pot",) and 3.8 < np.median(measured.channel("U_pot")) < 4.6
+
+
+def test_a_pot_voltage_out_of_the_plausible_range_is_named(example_config, tmp_path):
+    """A sample logged in mV instead of V: one error with the file, the column and the row."""
+
+    def in_millivolts(table):
+        table.loc[37, "U_pot"] *= 1000
+        return table
+
+    path = _pot_voltage_log(example_config, tmp_path / "pot.csv", in_millivolts)
+    with pytest.raises(TrajectoryDataError) as error:
+        load_trajectories(path)
+    assert str(error.value).startswith(
+        f"{path}: column 'U_pot' (pot voltage) must lie in 2.5-7 V where sampled, row 37 has 4"
+    )
+
+
 def test_the_worked_example_finds_the_heat_loss_of_400_step_data(example_config):
     """6 x 400 steps of another cell with a heat loss through the top the model lacks (make_data.py)."""
     user = example_config["discovery"]["user_data"]

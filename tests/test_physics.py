@@ -292,14 +292,16 @@ AUTHORS_CODE_CONSTANTS = {
     "beta": 0.000758,
     "critical_alumina_percent": 2.2,
 }
+#: ... and the default cell's pot voltage beyond the bath (channel U_pot): back EMF [V], resistance [ohm]
+DEFAULT_CELL_CONSTANTS = AUTHORS_CODE_CONSTANTS | {"E0": 1.8, "R_ext": 6.8e-6}
 
 
 def test_the_default_cell_gives_the_authors_constants_bit_for_bit():
     from costa.config import load_config
     from costa.physics import model_from_config
 
-    assert authors_code_parameters().as_dict() == AUTHORS_CODE_CONSTANTS
-    assert model_from_config(load_config()["physics"])[0].params.as_dict() == AUTHORS_CODE_CONSTANTS
+    assert authors_code_parameters().as_dict() == DEFAULT_CELL_CONSTANTS
+    assert model_from_config(load_config()["physics"])[0].params.as_dict() == DEFAULT_CELL_CONSTANTS
 
 
 @pytest.mark.parametrize(
@@ -311,6 +313,8 @@ def test_the_default_cell_gives_the_authors_constants_bit_for_bit():
         ("ambient_temperature", 20.0, {"k16": 20.0}),
         ("wall_heat_capacity", 2.0e6, {"k17": 5e-7}),
         ("bath_heat_capacity", 2000.0, {"alpha": 5e-4}),
+        ("back_emf", 1.7, {"E0": 1.7}),
+        ("external_resistance", 5e-6, {"R_ext": 5e-6}),
     ],
 )
 def test_a_cell_property_changes_exactly_the_constants_it_enters(field, value, changed):
@@ -319,7 +323,7 @@ def test_a_cell_property_changes_exactly_the_constants_it_enters(field, value, c
     from costa.physics import model_from_config
 
     params = model_from_config(load_config(overrides={"physics": {"cell": {field: value}}})["physics"])[0].params
-    differ = {k for k, v in params.as_dict().items() if v != AUTHORS_CODE_CONSTANTS[k]}
+    differ = {k for k, v in params.as_dict().items() if v != DEFAULT_CELL_CONSTANTS[k]}
     assert differ == set(changed)
     for name, expected in changed.items():
         if expected is not None:
@@ -352,3 +356,61 @@ def test_the_printed_table_cannot_take_a_cell():
 
     with pytest.raises(ConfigError, match="physics.cell sets material data, but physics.constants = paper_printed"):
         load_config(overrides={"physics": {"constants": "paper_printed", "cell": {"ledge_area": 20.0}}})
+
+
+# Faraday's law, from the constants' published values: F (CODATA 2018, exact), M(Al) and M(Al2O3) [kg/mol]
+FARADAY, M_AL, M_AL2O3 = 96485.33212, 0.026981538, 0.1019613
+
+
+def _cell_params(**cell):
+    from costa.config import load_config
+    from costa.physics import model_from_config
+
+    return model_from_config(load_config(overrides={"physics": {"cell": cell}})["physics"])[0].params
+
+
+def test_a_cell_at_full_current_efficiency_makes_faradays_metal():
+    """CE = 1: k6 = M(Al)/(3F) (0.3356 g of aluminium per ampere-hour) and k3 = M(Al2O3)/(6F)."""
+    params = _cell_params(current_efficiency=1.0)
+    assert params.k6 == pytest.approx(M_AL / (3 * FARADAY), rel=1e-12)
+    assert params.k3 == pytest.approx(M_AL2O3 / (6 * FARADAY), rel=1e-12)
+    assert params.k6 * 3600 * 1000 == pytest.approx(0.3356, abs=5e-5)  # g/(A h), the electrochemical equivalent
+
+
+@pytest.mark.parametrize("efficiency", [0.5, 0.93, 0.95, 1.0])
+def test_alumina_used_per_metal_made_is_the_stoichiometry_at_any_efficiency(efficiency):
+    """2 Al2O3 -> 4 Al: 1.8895 kg of alumina per kg of metal, whatever share of the current makes metal;
+    the efficiency scales both, and changes no other constant."""
+    params = _cell_params(current_efficiency=efficiency)
+    assert params.k3 / params.k6 == pytest.approx(M_AL2O3 / (2 * M_AL), rel=1e-12)
+    assert params.k3 / params.k6 == pytest.approx(1.8895, abs=1e-4)
+    assert params.k6 == pytest.approx(efficiency * M_AL / (3 * FARADAY), rel=1e-12)
+    differ = {k for k in AUTHORS_CODE_CONSTANTS if getattr(params, k) != AUTHORS_CODE_CONSTANTS[k]}
+    assert differ == {"k3", "k6"}
+
+
+def test_the_replication_keeps_the_coded_half_of_faradays_metal():
+    """No current efficiency (the default config): the authors' numbers exactly, k6 = 47.5 % of Faraday's."""
+    params = _cell_params()
+    assert (params.k3, params.k6) == (1.7e-7, 4.43e-8)
+    assert params.k6 / (M_AL / (3 * FARADAY)) == pytest.approx(0.475, abs=1e-3)
+
+
+def test_the_constants_table_names_faradays_law_and_overrides_still_win():
+    from costa.config import load_config
+    from costa.physics import constants_table
+
+    cell = {"current_efficiency": 0.95}
+    physics = load_config(overrides={"physics": {"cell": cell, "overrides": {"k3": 1.7e-7}}})["physics"]
+    table = constants_table(physics).set_index("constant")
+    assert table.loc["k6", "source"] == "Faraday's law: current_efficiency M(Al) / (3 F)"
+    assert table.loc["k6", "value"] == pytest.approx(8.855e-8, rel=1e-4)
+    assert table.loc["k3", ["value", "source"]].tolist() == [1.7e-7, "override"]
+
+
+@pytest.mark.parametrize("efficiency", [0.4, 1.05])
+def test_a_current_efficiency_out_of_bounds_is_named(efficiency):
+    from costa.config import ConfigError, load_config
+
+    with pytest.raises(ConfigError, match="physics.cell.current_efficiency"):
+        load_config(overrides={"physics": {"cell": {"current_efficiency": efficiency}}})

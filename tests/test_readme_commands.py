@@ -98,7 +98,7 @@ def _template_id(template) -> str:
 
 def template_table(config: dict) -> pd.DataFrame:
     """A trajectory table of the shape a template describes: the worked example's cell (6 trajectories x 400
-    steps); every state at every step where the template declares no sensor noise, else the cell voltage at
+    steps); every state at every step where the template declares no sensor noise, else the pot voltage at
     every step and the declared channels every 50 steps, empty in between."""
     table = pd.read_csv(EXAMPLE_CSV)
     noise = config["discovery"]["user_data"].get("noise") or {}
@@ -109,13 +109,21 @@ def template_table(config: dict) -> pd.DataFrame:
     from costa.physics import true_model
 
     x, u = arrays(table)
-    channels = ["U_cell", *noise]
+    channels = ["U_pot", *noise]
     values = observe(true_model(), x, u, channels).reshape(-1, len(channels))
     measured = table[["trajectory", "time_s", "u1", "u2", "u3", "u4", "u5"]].copy()
     sampled = table.groupby("trajectory").cumcount().to_numpy() % 50 == 0
     for c, name in enumerate(channels):
-        measured[name] = values[:, c] if name == "U_cell" else np.where(sampled, values[:, c], np.nan)
+        measured[name] = values[:, c] if name == "U_pot" else np.where(sampled, values[:, c], np.nan)
     return measured
+
+
+def template_events(table: pd.DataFrame) -> pd.DataFrame:
+    """An events table for a template's record: in every trajectory an alumina dose, an AlF3 addition and a tap."""
+    rows = [(t, time, kind, amount, duration) for t in table["trajectory"].unique()
+            for time, kind, amount, duration in ((300.0, "alumina_dose", 1.8, 0.0), (600.0, "alf3_addition", 20.0, 0.0),
+                                                 (1200.0, "tap", 1000.0, 600.0))]  # fmt: skip
+    return pd.DataFrame(rows, columns=["trajectory", "time_s", "kind", "amount_kg", "duration_s"])
 
 
 def snakemake_as_written(workdir: Path, command: str, *extra: str) -> subprocess.CompletedProcess:
@@ -355,8 +363,9 @@ def test_the_own_data_page_has_a_dense_and_a_sparse_template():
 @pytest.mark.parametrize("template", templates(), ids=_template_id)
 def test_config_templates_run_as_written(template, tmp_path):
     """The command after a template names the template's own target and config file, and runs as a dry run
-    with the template saved there and a table of the template's shape at its path; the sensor noise the
-    template declares covers every channel of that table that is not sampled at every step."""
+    with the template saved there and a table of the template's shape at its path (and events, where it names
+    an events table); the sensor noise the template declares covers every channel of that table that is not
+    sampled at every step."""
     from costa.data import load_trajectories, measured_trajectories
     from costa.discover.sparse.observations import channel_noise
 
@@ -372,9 +381,12 @@ def test_config_templates_run_as_written(template, tmp_path):
     template_table(config).to_csv(path, index=False)
     measured = measured_trajectories(load_trajectories(path))
     channel_noise(measured.values, measured.channels, user_data.get("noise") or {})
+    if "events" in user_data:
+        template_events(pd.read_csv(path)).to_csv(tmp_path / user_data["events"], index=False)
     result = snakemake_as_written(tmp_path, command, "--dry-run")
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-4000:]
     assert "discovery_user_data" in result.stdout, result.stdout[-2000:]
+    assert ("discovery_user_events" in result.stdout) == ("events" in user_data), result.stdout[-2000:]
 
 
 @pytest.mark.parametrize("document", [d for d in DOCUMENTS if blocks(d, "python")])

@@ -57,7 +57,33 @@ def test_config_sets_and_unknown_channels():
     assert sets["p"].channels == ("U_cell",) and sets["p"].steps(10.0, 5000) == 17280
     with pytest.raises(ValueError, match="unknown channel 'x9'"):
         Sensor("x9", 10.0, 1.0)
-    assert CHANNELS[-3:] == ("U_cell", "c2", "c3")
+    assert CHANNELS[-4:] == ("U_cell", "U_pot", "c2", "c3")
+
+
+def test_a_pot_line_logs_the_pot_voltage_of_4_2_volts(truth):
+    """U_pot = U + E0 + R_ext u2: the bath and bubbles' 1.45 V plus the back EMF 1.8 V and the anodes',
+    cathode's and bus bars' 0.95 V at 140 kA, the 4.2 V an industrial pot reads; logged with its noise."""
+    x, u = truth
+    sensors = SensorSet("pot line", (Sensor("U_pot", 10.0, 0.005),))
+    table = measure(true_model(), x, u, 10.0, sensors, np.random.default_rng(3))
+    pot = table["U_pot"].to_numpy().reshape(x.shape[:2])
+    cell = observe(true_model(), x, u, ["U_cell"])[..., 0]
+    assert np.std(pot - cell - (1.8 + 6.8e-6 * u[..., 1])) == pytest.approx(0.005, rel=0.05)
+    near = np.abs(u[..., 1] - 140_000) < 2_000
+    assert np.median(pot[near]) == pytest.approx(4.2, abs=0.1)
+
+
+def test_the_pot_voltage_beyond_the_bath_is_a_measurement_not_physics(truth):
+    """Another back EMF or external resistance shifts U_pot by exactly their change and no balance."""
+    from costa.config import load_config
+    from costa.physics import model_from_config
+
+    x, u = truth[0][:, :50], truth[1][:, :50]
+    cell = {"back_emf": 1.6, "external_resistance": 5e-6}
+    other = model_from_config(load_config(overrides={"physics": {"cell": cell}})["physics"])[0]
+    shift = observe(other, x, u, ["U_pot"]) - observe(true_model(), x, u, ["U_pot"])
+    np.testing.assert_allclose(shift[..., 0], -0.2 - 1.8e-6 * u[..., 1], rtol=1e-9)
+    np.testing.assert_array_equal(other.rhs(x, u), true_model().rhs(x, u))
 
 
 def test_unmeasured_ledge_is_recovered_and_a_wrong_model_is_flagged(truth):

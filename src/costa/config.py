@@ -117,7 +117,8 @@ def _check_disjoint_windows(windows: Mapping[str, Any]) -> None:
 
 
 def check_user_data(config: Mapping[str, Any]) -> None:
-    """Read and check the measurements ``discovery.user_data.path`` names (if any) as discovery will.
+    """Read and check the measurements ``discovery.user_data.path`` names (if any) as discovery will,
+    and the events ``discovery.user_data.events`` names (if any) against them.
 
     Raises :class:`costa.data.TrajectoryDataError` naming the key, the file and the column
     and row of the first problem, so that a bad file stops a run before anything is scheduled.
@@ -127,11 +128,17 @@ def check_user_data(config: Mapping[str, Any]) -> None:
         return
     from .data import TrajectoryDataError
     from .discover.pipeline import split_held_out
+    from .events import load_trajectories_with_events
 
     try:
         split_held_out(user["path"], user["held_out_fraction"])
     except TrajectoryDataError as error:
         raise TrajectoryDataError(f"invalid data at 'discovery.user_data.path': {error}") from None
+    if user.get("events"):
+        try:
+            load_trajectories_with_events(user["path"], user["events"])
+        except TrajectoryDataError as error:
+            raise TrajectoryDataError(f"invalid data at 'discovery.user_data.events': {error}") from None
 
 
 def _check_peers(config: Mapping[str, Any]) -> None:

@@ -7,10 +7,11 @@ The data contract (``docs/own-data.md`` explains it for users):
   step within each trajectory, and a trajectory's rows are contiguous.  ``step`` is
   optional (derived from the row order).
 - the measurement channels, each optional: the states ``x1..x8`` and the outputs
-  ``U_cell`` (cell voltage, V), ``c2`` and ``c3`` (the bath's Al2O3 and AlF3 mass
-  fractions).  NaN (an empty CSV field) marks a step where a channel was not
-  sampled; a column that is absent, or has no value at all, is unmeasured.  At
-  least one channel must be measured; masses must be positive where present.
+  ``U_cell`` (cell voltage, V), ``U_pot`` (pot voltage, V), ``c2`` and ``c3`` (the
+  bath's Al2O3 and AlF3 mass fractions).  NaN (an empty CSV field) marks a step where
+  a channel was not sampled; a column that is absent, or has no value at all, is
+  unmeasured.  At least one channel must be measured; masses must be positive and the
+  pot voltage within 2.5-7 V (``PLAUSIBLE_RANGE``) where present.
 - simulated tables also carry ``g1``, the true liquidus temperature, for reference.
 
 :func:`load_trajectories` reads such a table (Parquet or CSV) and checks it,
@@ -34,7 +35,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from .variables import AUXILIARY, CHANNELS, INPUTS, MASS_STATES, MEANING, STATES, UNIT
+from .variables import AUXILIARY, CHANNELS, INPUTS, MASS_STATES, MEANING, PLAUSIBLE_RANGE, STATES, UNIT
 
 __all__ = [
     "CHANNELS",
@@ -92,7 +93,8 @@ def load_trajectories(path: str | Path) -> pd.DataFrame:
     ``u1..u5`` are there; the known columns are numeric; keys and inputs have a
     finite value in every row; channels are finite where sampled; at least one
     channel is measured; time strictly increases with a uniform step within each
-    trajectory; masses are positive where sampled.  A missing ``step`` column is
+    trajectory; masses are positive and channels with a plausible range
+    (``PLAUSIBLE_RANGE``) within it where sampled.  A missing ``step`` column is
     derived from the row order.  Raises :class:`TrajectoryDataError`.
     """
     path = Path(path)
@@ -105,6 +107,7 @@ def load_trajectories(path: str | Path) -> pd.DataFrame:
     _check_some_channel(path, table)
     _check_time(path, table)
     _check_positive_masses(path, table)
+    _check_plausible_range(path, table)
     if "step" not in table.columns:
         table.insert(1, "step", table.groupby("trajectory", sort=False).cumcount().astype(np.int32))
     return table
@@ -313,6 +316,20 @@ def _check_positive_masses(path: Path, table: pd.DataFrame) -> None:
             )
 
 
+def _check_plausible_range(path: Path, table: pd.DataFrame) -> None:
+    for column, (low, high) in PLAUSIBLE_RANGE.items():
+        if column not in table.columns:
+            continue
+        values = table[column].to_numpy(dtype=np.float64)
+        bad = (values < low) | (values > high)  # NaN compares False: not sampled is fine
+        if bad.any():
+            row = _first_row(bad)
+            raise TrajectoryDataError(
+                f"{path}: column {column!r} ({MEANING[column]}) must lie in {low:g}-{high:g} {UNIT[column]} "
+                f"where sampled, row {row} has {values[row]:g} (a wrong unit, or a sample to leave empty?)"
+            )
+
+
 def _read(path: Path) -> pd.DataFrame:
     if not path.is_file():
         raise TrajectoryDataError(f"{path}: no such file")
@@ -343,7 +360,7 @@ def _check_layout(path: Path, table: pd.DataFrame) -> None:
             if separator in header:
                 raise TrajectoryDataError(
                     f"{path}: the header {header[:60]!r} is one column separated by {name}; "
-                    "a CSV trajectory table is separated by commas"
+                    "a CSV table is separated by commas"
                 )
     if table.empty:
         raise TrajectoryDataError(f"{path}: the table has columns but no rows")

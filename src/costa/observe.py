@@ -1,9 +1,11 @@
 """What a model predicts for each measurement channel of the data contract (:mod:`costa.data`).
 
 A state channel x1..x8 is the state itself; ``U_cell`` is the model's cell voltage U
-(the part ``cell_voltage``, V); ``c2`` and ``c3`` are the bath's Al2O3 and AlF3 mass
-fractions x2/m and x3/m with m = x2 + x3 + x4.  A model with a corrected voltage
-part predicts its corrected voltage.
+(the part ``cell_voltage``, V: bubbles and the bath's ohmic drop); ``U_pot`` is the
+voltage a pot line logs, U + E0 + R_ext u2 [V] with the cell's back EMF E0 and the
+resistance R_ext of its anodes, cathode and bus bars at the logged line current u2;
+``c2`` and ``c3`` are the bath's Al2O3 and AlF3 mass fractions x2/m and x3/m with
+m = x2 + x3 + x4.  A model with a corrected voltage part predicts its corrected voltage.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ def observe(model: CellModel, x: np.ndarray, u: np.ndarray, channels: Sequence[s
     if unknown:
         raise ValueError(f"unknown channel(s) {unknown}; known: {list(CHANNELS)}")
     v = CellVariables(x, u)
-    voltage = model.quantities(x, u)["cell_voltage"] if "U_cell" in channels else None
-    derived = {"U_cell": voltage, "c2": v.c2, "c3": v.c3}
+    derived = {"c2": v.c2, "c3": v.c3}
+    if {"U_cell", "U_pot"} & set(channels):
+        derived["U_cell"] = model.quantities(x, u)["cell_voltage"]
+        derived["U_pot"] = derived["U_cell"] + model.params.E0 + model.params.R_ext * v.u2
     return np.stack([x[..., STATES.index(c)] if c in STATES else derived[c] for c in channels], axis=-1)

@@ -1,8 +1,9 @@
 """What a cell's instruments measure: channels, sampling intervals and noise.
 
 A *channel* is one measured quantity: a state ``x1..x8``, the cell voltage
-``U_cell`` [V] (the model's U = g5 + u2 u5 / (2620 g2)), or the bath's Al2O3 and
-AlF3 mass fractions ``c2``, ``c3`` [-].  A :class:`SensorSet` says which channels are
+``U_cell`` [V] (the model's U = g5 + u2 u5 / (2620 g2)), the pot voltage ``U_pot``
+[V] (U + E0 + R_ext u2, :mod:`costa.observe`), or the bath's Al2O3 and AlF3 mass
+fractions ``c2``, ``c3`` [-].  A :class:`SensorSet` says which channels are
 measured, every how many seconds, and with what Gaussian noise (absolute, in the
 channel's unit).  :func:`measure` turns a simulated truth into the tidy table a
 plant would log: inputs at every step (they are logged commands), each measured

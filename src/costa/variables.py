@@ -2,16 +2,17 @@
 
 States are x1..x8 and inputs u1..u5 as in the paper (array index = number - 1).
 A measured table may also carry the model's outputs: the cell voltage ``U_cell``
-and the bath's Al2O3 and AlF3 mass fractions ``c2``, ``c3``.  States and outputs
-are the measurement *channels*; ``g1`` (the simulator's true liquidus temperature)
-is kept in simulated tables for reference only.
+(the bath's and bubbles' part), the pot voltage ``U_pot`` (what a pot line logs) and
+the bath's Al2O3 and AlF3 mass fractions ``c2``, ``c3``.  States and outputs are the
+measurement *channels*; ``g1`` (the simulator's true liquidus temperature) is kept in
+simulated tables for reference only.
 """
 
 from __future__ import annotations
 
 STATES: tuple[str, ...] = tuple(f"x{i}" for i in range(1, 9))
 INPUTS: tuple[str, ...] = tuple(f"u{i}" for i in range(1, 6))
-OUTPUTS: tuple[str, ...] = ("U_cell", "c2", "c3")
+OUTPUTS: tuple[str, ...] = ("U_cell", "U_pot", "c2", "c3")
 CHANNELS: tuple[str, ...] = (*STATES, *OUTPUTS)
 AUXILIARY: tuple[str, ...] = ("g1",)
 
@@ -31,6 +32,7 @@ MEANING: dict[str, str] = {
     "u5": "anode-cathode distance",
     "g1": "liquidus temperature",
     "U_cell": "cell voltage",
+    "U_pot": "pot voltage",
     "c2": "Al2O3 mass fraction of the bath",
     "c3": "AlF3 mass fraction of the bath",
     "time_s": "time",
@@ -52,12 +54,18 @@ UNIT: dict[str, str] = {
     "u5": "m",
     "g1": "degC",
     "U_cell": "V",
+    "U_pot": "V",
     "c2": "-",
     "c3": "-",
     "time_s": "s",
 }
 
 MASS_STATES: tuple[str, ...] = ("x1", "x2", "x3", "x4", "x5")
+
+#: channel -> (low, high): a sample outside is a logging or unit error.  A pot reads 4-4.6 V; below
+#: 2.5 V it makes no metal (its back EMF alone is 1.5-1.9 V), above 7 V it is in an anode effect
+#: (8-50 V for minutes), which the model does not describe: leave such samples empty.
+PLAUSIBLE_RANGE: dict[str, tuple[float, float]] = {"U_pot": (2.5, 7.0)}
 
 
 def label(name: str) -> str:

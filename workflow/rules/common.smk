@@ -193,10 +193,20 @@ def starting_model_name(wildcards):
     return find_case(wildcards.case).starting
 
 
+def user_measurements(wildcards):
+    """Your record as logged, or with the rates of your events added (discovery.user_data.events)."""
+    user = config["discovery"]["user_data"]
+    if user.get("events"):
+        return out(f"discovery/{wildcards.case}/data/measurements.parquet")
+    return user["path"]
+
+
 def discovery_meta(wildcards):
     """What findings.json records about the data (and, for a shipped case, what is hidden)."""
     if wildcards.case == USER_CASE:
-        return {"data": f"measurements from {config['discovery']['user_data']['path']}"}
+        user = config["discovery"]["user_data"]
+        events = f" with the events in {user['events']}" if user.get("events") else ""
+        return {"data": f"measurements from {user['path']}{events}"}
     from costa.discover.cases.unshipped import find_case
 
     case = find_case(wildcards.case)

@@ -20,10 +20,29 @@ rule discovery_case_data:
         "../scripts/discovery_case_data.py"
 
 
+rule discovery_user_events:
+    """Add the rates of your events (taps, AlF3 additions, alumina doses) to your record's u4, u3 and u1."""
+    input:
+        record=lambda wildcards: config["discovery"]["user_data"]["path"],
+        events=lambda wildcards: config["discovery"]["user_data"]["events"],
+        code=package_files("data.py", "events.py", "variables.py"),
+    output:
+        measurements=out("discovery/{case}/data/measurements.parquet"),
+    log:
+        out("discovery/{case}/logs/events.log"),
+    wildcard_constraints:
+        case=USER_CASE or "^$",
+    conda:
+        ENV
+    threads: 1
+    script:
+        "../scripts/discovery_user_events.py"
+
+
 rule discovery_user_data:
     """Split your own measurements into trajectories to learn from and held-out ones."""
     input:
-        measurements=lambda wildcards: config["discovery"]["user_data"]["path"],
+        measurements=user_measurements,
     output:
         train=out("discovery/{case}/data/train.parquet"),
         held_out=out("discovery/{case}/data/held_out.parquet"),

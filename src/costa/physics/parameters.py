@@ -13,7 +13,12 @@ meaning; :func:`constants_table` lists a cell's constants with where they come f
 
 Your own cell: the config's ``physics.cell`` section sets the fields of
 :class:`MaterialProperties`, from which the constants are derived exactly as for
-the paper's cell; ``physics.overrides`` then replaces single constants.
+the paper's cell; ``physics.overrides`` then replaces single constants.  E0 and
+R_ext, the pot voltage's parts beyond the bath (channel ``U_pot``, :mod:`costa.observe`),
+enter no balance.  A cell that
+gives its current efficiency gets k3 and k6 from Faraday's law
+(:func:`faraday_constants`); without it they stay the authors' numbers, which make
+half of Faraday's metal (``docs/errata.md`` #31).
 """
 
 from __future__ import annotations
@@ -25,12 +30,19 @@ from typing import Any
 
 import pandas as pd
 
+#: Faraday's constant [C/mol] (CODATA 2018; exact in the SI since 2019)
+FARADAY = 96485.33212
+#: molar masses of aluminium and alumina [kg/mol] (NIST Chemistry WebBook: 26.981538 and 101.9613 g/mol)
+MOLAR_MASS_AL = 0.026981538
+MOLAR_MASS_AL2O3 = 0.1019613
+
 __all__ = [
     "CONSTANTS",
     "CellParameters",
     "MaterialProperties",
     "authors_code_parameters",
     "constants_table",
+    "faraday_constants",
     "paper_printed_parameters",
     "parameters_from_config",
 ]
@@ -42,10 +54,15 @@ class MaterialProperties:
 
     Units: conductivities in W/(m K), lengths in m, heat transfer coefficients in
     W/(m^2 K), areas in m^2, density in kg/m^3, enthalpy in J/kg, specific heat
-    capacities in J/(kg K), the wall's heat capacity in J/K, temperatures in degC.
+    capacities in J/(kg K), the wall's heat capacity in J/K, temperatures in degC,
+    the current efficiency as a fraction (0.95 = 95 %), the back EMF in V and the
+    external resistance in ohm.
     The defaults are the paper's cell; the authors' code gives k0, k16, k17, alpha
-    and beta as numbers, whose physical values are the last five fields (the
+    and beta as numbers, whose physical values are the next five fields (the
     reciprocals are exact: 1 / (1 / 5.66e-4) == 5.66e-4 in float64).
+    ``current_efficiency`` None keeps the code's k3 and k6.  ``back_emf`` and
+    ``external_resistance`` are typical values (docs/model.md §2, "The pot voltage") that
+    make a pot voltage of 4.2 V at 140 kA for the paper's cell.
     """
 
     ledge_conductivity: float = 2.5  # k_sl
@@ -62,6 +79,9 @@ class MaterialProperties:
     ledge_heat_capacity: float = 1319.2612137203166  # c_p,sl = 1 / beta, beta = 7.58e-4
     wall_heat_capacity: float = 1666666.6666666667  # C_wall = 1 / k17, k17 = 6e-7
     ambient_temperature: float = 35.0  # T_0 = k16
+    current_efficiency: float | None = None  # CE: k3 and k6 by Faraday's law where given
+    back_emf: float = 1.8  # E0: reversible 1.2 V + anode 0.5 V + cathode 0.1 V over-voltage
+    external_resistance: float = 6.8e-6  # R_ext: anode 0.3 V + cathode 0.45 V + bus bars 0.2 V at 140 kA
 
 
 @dataclass(frozen=True)
@@ -70,7 +90,8 @@ class CellParameters:
 
     Units and meanings are in :data:`CONSTANTS`; :mod:`costa.physics.parts` and
     :mod:`costa.physics.model` show each constant's role in the equations.
-    ``critical_alumina_percent`` is c_x2,crit in percent (2.2).
+    ``critical_alumina_percent`` is c_x2,crit in percent (2.2).  ``E0`` [V] and
+    ``R_ext`` [ohm] make the pot voltage U + E0 + R_ext u2 (:mod:`costa.observe`).
     """
 
     k0: float
@@ -94,6 +115,8 @@ class CellParameters:
     k18: float
     alpha: float
     beta: float
+    E0: float
+    R_ext: float
     critical_alumina_percent: float = 2.2
 
     def replace(self, **changes: float) -> CellParameters:
@@ -113,20 +136,23 @@ def authors_code_parameters(
 ) -> CellParameters:
     """The constants as the authors' simulator computes them (the default), for any cell's ``material``.
 
-    k3..k6 (the electrochemistry: consumption and production per ampere, the
-    alumina's impurity) do not depend on the cell and stay the code's numbers.
+    k4 and k5 (the alumina's impurity) stay the code's numbers.  k3 and k6 (alumina
+    used and metal made per ampere) too, unless the cell gives its current efficiency:
+    then they follow Faraday's law (:func:`faraday_constants`).
     """
     m = material
     k1 = 2 * m.ledge_conductivity * m.ledge_area / m.cryolite_fusion_enthalpy
     k2 = m.bath_ledge_heat_transfer * m.ledge_area / m.cryolite_fusion_enthalpy
+    per_ampere = {"k3": 1.7e-7, "k6": 4.43e-8}
+    if m.current_efficiency is not None:
+        per_ampere = faraday_constants(m.current_efficiency)
     return CellParameters(
         k0=1 / (m.ledge_density * m.ledge_area),
         k1=k1,
         k2=k2,
-        k3=1.7e-7,
         k4=0.02,
         k5=0.03,
-        k6=4.43e-8,
+        **per_ampere,
         k7=k2 * m.liquid_cryolite_heat_capacity,
         k8=k1 * m.liquid_cryolite_heat_capacity,
         k9=m.ledge_area,
@@ -141,11 +167,27 @@ def authors_code_parameters(
         k18=1 / m.wall_ambient_heat_transfer,
         alpha=1 / m.bath_heat_capacity,
         beta=1 / m.ledge_heat_capacity,
+        E0=m.back_emf,
+        R_ext=m.external_resistance,
     )
 
 
+def faraday_constants(current_efficiency: float) -> dict[str, float]:
+    """k3 and k6 [kg/(A s)] of a cell with this current efficiency [-], by Faraday's law.
+
+    Each Al atom takes 3 electrons, so an ampere makes CE M(Al) / (3 F) of metal (k6)
+    and uses half a mole of Al2O3 per mole of Al, CE M(Al2O3) / (6 F) (k3).
+    """
+    return {
+        "k3": current_efficiency * MOLAR_MASS_AL2O3 / (6 * FARADAY),
+        "k6": current_efficiency * MOLAR_MASS_AL / (3 * FARADAY),
+    }
+
+
 def paper_printed_parameters() -> CellParameters:
-    """The constants exactly as printed in the paper's Table 2 (rounded)."""
+    """The constants exactly as printed in the paper's Table 2 (rounded); E0 and R_ext, which the
+    paper does not have, are the default cell's."""
+    cell = MaterialProperties()
     return CellParameters(
         k0=2e-5,
         k1=7.5e-4,
@@ -168,6 +210,8 @@ def paper_printed_parameters() -> CellParameters:
         k18=0.04,
         alpha=5.66e-4,
         beta=7.58e-4,
+        E0=cell.back_emf,
+        R_ext=cell.external_resistance,
     )
 
 
@@ -221,27 +265,41 @@ CONSTANTS: dict[str, tuple[str, str, str]] = {
     "k18": ("m^2 K/W", "wall-ambient thermal resistance", "1 / wall_ambient_heat_transfer"),
     "alpha": ("kg K/J", "inverse specific heat capacity of the bath", "1 / bath_heat_capacity"),
     "beta": ("kg K/J", "inverse specific heat capacity of the ledge", "1 / ledge_heat_capacity"),
+    "E0": ("V", "back EMF: reversible voltage and over-voltages, in the pot voltage U_pot", "back_emf"),
+    "R_ext": ("ohm", "resistance of anodes, cathode and bus bars, in the pot voltage U_pot", "external_resistance"),
     "critical_alumina_percent": ("%", "alumina content of the anode effect (in g3)", ""),
 }  # fmt: skip
+#: constants of this project's own, not in the paper's Table 2 (derived from the cell with either preset)
+NOT_PRINTED = ("E0", "R_ext")
+
+#: how k3 and k6 derive where ``physics.cell.current_efficiency`` is given (else they are fixed numbers)
+FARADAY_DERIVATION = {
+    "k3": "Faraday's law: current_efficiency M(Al2O3) / (6 F)",
+    "k6": "Faraday's law: current_efficiency M(Al) / (3 F)",
+}
 
 
 def constants_table(physics: Mapping[str, Any]) -> pd.DataFrame:
     """The constants of a config's ``physics`` section: constant, value, unit, meaning, source.
 
-    ``source`` is the derivation from ``physics.cell`` (constants: authors_code),
-    "override" (``physics.overrides``), "fixed" (a number of the authors' code) or
-    "printed" (constants: paper_printed).
+    ``source`` is the derivation from ``physics.cell`` (constants: authors_code; k3
+    and k6 by Faraday's law where the cell gives its current efficiency), "override"
+    (``physics.overrides``), "fixed" (a number of the authors' code) or "printed"
+    (constants: paper_printed).
     """
     overrides = physics.get("overrides") or {}
     params = parameters_from_config(physics["constants"], overrides, physics.get("cell"))
     derived = physics["constants"] == "authors_code"
+    faraday = (physics.get("cell") or {}).get("current_efficiency") is not None
     rows = []
     for name, value in params.as_dict().items():
         unit, meaning, formula = CONSTANTS[name]
         if name in overrides:
             source = "override"
-        elif not derived:
+        elif not derived and name not in NOT_PRINTED:
             source = "printed"
+        elif faraday and name in FARADAY_DERIVATION:
+            source = FARADAY_DERIVATION[name]
         else:
             source = formula or "fixed"
         rows.append({"constant": name, "value": value, "unit": unit, "meaning": meaning, "source": source})
