@@ -135,6 +135,42 @@ def test_the_worked_example_finds_the_heat_loss_of_400_step_data(example_config)
     assert "short [0, 8) = 0-80 s" in findings_markdown(found)
 
 
+def test_a_record_with_constant_line_current_and_no_tap_names_what_it_can(example_config, tmp_path):
+    """A pot line holds the current and taps once a day: 6 x 400 steps of the worked example's
+    cell and heat loss with u2 at 140 kA and no tap (u4 = 0) go through, the heat
+    loss is named, and the findings say what the record cannot decide."""
+    from costa import seeds
+    from costa.data import to_table
+    from costa.discover import CASES, add_noise
+    from costa.physics import model_from_config
+    from costa.simulate import SimulationSettings, simulate_set
+
+    config = load_config(
+        REPOSITORY / "config" / "config.yaml", REPOSITORY / "config" / "smoke.yaml", EXAMPLE / "config.yaml"
+    )
+    simulation = copy.deepcopy(config["simulation"])
+    simulation["excitation"]["line_current"]["offset"] = [0.0, 0.0]
+    simulation["controllers"]["metal_tapping"].update(min_rate=0.0, max_rate=0.0)
+    settings = SimulationSettings.from_config(simulation)
+    true, _ = CASES["top_heat_loss"].models(model_from_config(config["physics"])[0])
+    simulated, _ = simulate_set(true, settings, 6, config["seed"], 0, "constant-inputs")
+    assert np.ptp(simulated.u[..., 1]) == 0 and np.ptp(simulated.u[..., 3]) == 0
+    noisy = add_noise(simulated.x, 0.01, seeds.numpy_generator(config["seed"], 0, "constant-inputs/noise"))
+    path = tmp_path / "cell.csv"
+    to_table(noisy, simulated.u, settings.dt).drop(columns=["step"]).to_csv(path, index=False, float_format="%.6g")
+    train, held_out = split_held_out(path, 1 / 3)
+    start = starting_model(example_config, "full")
+    found = findings(
+        run_discovery(example_config, train, held_out, start, "cell", str(path)), "cell", start, {"data": "x"}
+    )
+    assert found["named"][0] == "term:bath_energy"
+    assert [i["input"] for i in found["inputs_that_did_not_vary"]] == ["u2", "u4"]
+    assert "line current did not vary" in found["inputs_that_did_not_vary"][0]["consequence"]
+    assert "**Inputs that did not vary**" in findings_markdown(found)
+    named_terms = [c["term"] for c in found["rounds"][0]["named"]["coefficients"]]
+    assert not any("u2" in t or "u4" in t for t in named_terms)
+
+
 def test_the_example_data_are_what_the_documented_script_makes(tmp_path):
     spec = importlib.util.spec_from_file_location("make_data", EXAMPLE / "make_data.py")
     module = importlib.util.module_from_spec(spec)

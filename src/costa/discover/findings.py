@@ -168,6 +168,15 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
 GLOSSARY = "docs/glossary.md"
 
 
+def _undecidable(u: str) -> str:
+    """What a record in which input ``u`` did not vary cannot decide."""
+    return (
+        f"the {MEANING[u]} did not vary, so terms in {u} left the closed forms (they duplicate the constant) and an "
+        f"effect that depends on {u} is not identifiable from this record: it reads as a constant at this {u}; "
+        f"a record in which the {MEANING[u]} changes would tell"
+    )
+
+
 def findings(
     result: DiscoveryResult | PartialResult,
     name: str,
@@ -201,6 +210,9 @@ def findings(
         extra["channels"] = channels.astype(object).where(channels.notna(), None).to_dict(orient="records")
     if constants is not None:
         extra["constants"] = constants.to_dict(orient="records")
+    extra["inputs_that_did_not_vary"] = [
+        {"input": u, "meaning": MEANING[u], "consequence": _undecidable(u)} for u in result.constant_inputs
+    ]
     if partial:
         measured = {"measurements": "partial", "flagged_channels": first["flagged"]}
         noise = dict(zip(result.channels, map(float, result.noise), strict=True))
@@ -267,6 +279,10 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
         f"**Outcome**: {f['outcome']}.",
         "",
     ]
+    if f.get("inputs_that_did_not_vary"):
+        lines += ["**Inputs that did not vary** (what this record cannot decide):", ""]
+        lines += [f"- {i['input']} ({i['meaning']}): {i['consequence']}" for i in f["inputs_that_did_not_vary"]]
+        lines.append("")
     if f.get("channels"):
         lines += ["**Measured channels**:", ""]
         lines += [f"- {line}" for line in _channel_lines(f["channels"])]

@@ -19,6 +19,8 @@ from .. import seeds
 from ..data import TrajectoryDataError, incomplete_states, load_trajectories
 from ..metrics import EvaluationSettings, windows_from_fractions
 from ..physics import CellModel, model_from_config
+from ..variables import INPUTS
+from .core.library import constant_inputs
 from .core.settings import DiscoverySettings
 from .full_state.pipeline import DiscoveryResult, run_full_state_discovery
 from .sparse.pipeline import PartialResult, run_partial_discovery
@@ -110,9 +112,11 @@ def run_discovery(
     floor_rng = seeds.numpy_generator(config["seed"], 0, f"discovery/{name}/floor")
     if incomplete_states(train) or incomplete_states(held_out):
         evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
-        return run_partial_discovery(
+        result = run_partial_discovery(
             train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng
         )
-    return run_full_state_discovery(
-        train, held_out, start, settings, lambda steps: gap_settings(config, name, steps), source, floor_rng
-    )
+    else:
+        result = run_full_state_discovery(
+            train, held_out, start, settings, lambda steps: gap_settings(config, name, steps), source, floor_rng
+        )
+    return replace(result, constant_inputs=constant_inputs(train[list(INPUTS)].to_numpy()))

@@ -18,8 +18,9 @@ from itertools import combinations_with_replacement, product
 import numpy as np
 
 from ...physics import CellVariables
+from ...variables import INPUTS
 
-__all__ = ["FIRST_ORDER", "FLOW_INPUTS", "Feature", "feature_library"]
+__all__ = ["FIRST_ORDER", "FLOW_INPUTS", "Feature", "constant_inputs", "feature_library"]
 
 
 @dataclass(frozen=True)
@@ -127,3 +128,11 @@ def feature_library(relative: bool, rich: bool = False) -> list[Feature]:
 def evaluate(features: list[Feature], v: CellVariables, q, own) -> np.ndarray:
     """All features at once (..., P)."""
     return np.stack([np.broadcast_to(np.asarray(f(v, q, own), dtype=float), v.x1.shape) for f in features], axis=-1)
+
+
+def constant_inputs(u: np.ndarray) -> tuple[str, ...]:
+    """The inputs that do not vary over a record's inputs u (..., 5) (a pot line's line current,
+    a record without a tap): their terms duplicate the constant term, so the fits drop them
+    (:func:`.regression.independent_columns`), and an effect that reads one cannot be told from a
+    constant effect."""
+    return tuple(name for i, name in enumerate(INPUTS) if np.ptp(u[..., i]) == 0)

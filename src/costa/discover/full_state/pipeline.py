@@ -12,7 +12,6 @@ import pandas as pd
 from ...data import TrajectoryDataError, arrays, time_step
 from ...metrics import EvaluationSettings, state_scale
 from ...physics import CellModel
-from ...variables import INPUTS
 from ..core.noise import estimate_noise
 from ..core.settings import DiscoverySettings
 from .gap import gap_tables, noise_floor
@@ -43,26 +42,22 @@ class DiscoveryResult:
     seconds: float
     windows: dict[str, tuple[int, int]]  # the gap's windows [start, stop) in steps of the held-out data
     dt: float  # the data's time step [s]
+    constant_inputs: tuple[str, ...] = ()  # inputs that did not vary in the training data
 
 
-def _check_suitable(x: np.ndarray, u: np.ndarray, window: int, source: str) -> None:
+def _check_suitable(x: np.ndarray, window: int, source: str) -> None:
     """One clear error if the data cannot support discovery."""
     if x.shape[1] < 4 * window + 1:
         raise TrajectoryDataError(
             f"{source}: trajectories of {x.shape[1]} samples are too short; discovery needs at least "
             f"{4 * window + 1} (4 windows of discovery.window_steps = {window})"
         )
-    constant = [name for i, name in enumerate(INPUTS) if np.ptp(u[..., i]) == 0]
-    if constant:
-        raise TrajectoryDataError(
-            f"{source}: inputs {constant} do not vary; discovery needs excited inputs to tell effects apart"
-        )
 
 
 def _data(train: pd.DataFrame, held_out: pd.DataFrame, source: str, window: int) -> DiscoveryData:
     x, u = arrays(train)
     xh, uh = arrays(held_out)
-    _check_suitable(x, u, window, source)
+    _check_suitable(x, window, source)
     return DiscoveryData(x, u, xh, uh, time_step(train))
 
 

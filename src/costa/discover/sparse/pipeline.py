@@ -44,6 +44,7 @@ class PartialResult:
     windows: dict[str, tuple[int, int]]
     dt: float
     start_steps: int
+    constant_inputs: tuple[str, ...] = ()  # inputs that did not vary in the training data
 
 
 def observations(table: pd.DataFrame, declared_noise: Mapping[str, float], source: str) -> Observations:
