@@ -308,7 +308,8 @@ def _where(
         "superheat x6 - g1": v.x6 - q["liquidus_temperature"],
     }  # fmt: skip
     means = {name: problem.form.average(values[..., None])[..., 0].ravel() for name, values in variables.items()}
-    means = {name: values for name, values in means.items() if np.ptp(values) > 0}  # an input held constant says nothing
+    # an input held constant (a pot line's current) correlates with nothing
+    means = {name: values for name, values in means.items() if np.ptp(values) > 0}
     where = {}
     for i in flagged:
         residual = z[..., i].ravel()
