@@ -60,11 +60,12 @@ def noise_floor(
     rollouts, averaged over ``draws`` noise draws.
     """
     truth = rollout_physics(model, x, u, dt)
+    measured = np.stack([truth + rng.normal(size=truth.shape) * noise for _ in range(draws)])
+    # the draws' rollouts side by side, one batch: each trajectory's rollout is its own
+    forecasts = rollout_physics(model, measured.reshape(-1, *truth.shape[1:]), np.tile(u, (draws, 1, 1)), dt)
     medians = []
-    for _ in range(draws):
-        measured = truth + rng.normal(size=truth.shape) * noise
-        forecasts = rollout_physics(model, measured, u, dt)
-        error = per_step_error(forecasts[None], measured, scale, "absolute", settings.nonfinite_error)
+    for draw, forecast in zip(measured, forecasts.reshape(measured.shape), strict=True):
+        error = per_step_error(forecast[None], draw, scale, "absolute", settings.nonfinite_error)
         medians.append(
             {
                 w: np.median(v)
