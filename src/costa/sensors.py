@@ -27,7 +27,7 @@ from .observe import observe
 from .physics import CellModel
 from .variables import CHANNELS, STATES
 
-__all__ = ["CHANNELS", "Sensor", "SensorSet", "measure", "sensor_sets_from_config"]
+__all__ = ["AVAILABLE", "CHANNELS", "Sensor", "SensorSet", "measure", "sensor_sets_from_config"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,26 @@ class Sensor:
     def __post_init__(self):
         if self.channel not in CHANNELS:
             raise ValueError(f"unknown channel {self.channel!r}; known: {list(CHANNELS)}")
+
+
+#: What a pot line can measure, at its usual intervals and with typical noise (the ones
+#: "what to measure next" ranks): the voltage log (5 mV once the bubble noise is filtered);
+#: a thermocouple dip of the bath, hourly or daily (1.5 degC); a bath sample's AlF3 by XRF
+#: (0.002) and Al2O3 by oxygen analysis (0.001), per shift or daily; a metal-height dip,
+#: per shift or daily (15 kg of metal); a shell thermocouple every 10 min (2 degC).  The
+#: ledge and the individual masses have no routine measurement.
+AVAILABLE: tuple[Sensor, ...] = (
+    Sensor("U_cell", 10, 0.005),
+    Sensor("x6", 3600, 1.5),
+    Sensor("x6", 86400, 1.5),
+    Sensor("c3", 28800, 0.002),
+    Sensor("c3", 86400, 0.002),
+    Sensor("c2", 28800, 0.001),
+    Sensor("c2", 86400, 0.001),
+    Sensor("x5", 28800, 15.0),
+    Sensor("x5", 86400, 15.0),
+    Sensor("x8", 600, 2.0),
+)
 
 
 @dataclass(frozen=True)

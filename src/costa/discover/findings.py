@@ -139,6 +139,16 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
             for b in r.at_budget
         ],
         "separated_by": r.separated_by,
+        "measure_next": [
+            {
+                "channel": m.channel,
+                "meaning": MEANING[m.channel],
+                "every_s": m.every_s,
+                "noise": m.noise,
+                "separation_noise_stds": round(m.separation, 1),
+            }
+            for m in r.measure_next
+        ],
         "misfit_after_best": round(r.dispersion, 3),
         "named": None,
         "correction": None,
@@ -431,8 +441,15 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
         lines += [
             f"- `{e['hypothesis']}`: `{e['closed_form']}` (BIC gain {e['bic_gain']:.0f})" for e in r["equivalent"]
         ]
-        if r["separated_by"]:
-            lines.append(f"- measuring `{r['separated_by']}` would separate them")
+
+    if r.get("measure_next"):
+        lines += ["", "What to measure next (the expected separation of the best explanation from the nearest other, "
+                  "over this record's cells and hours, in noise stds):"]  # fmt: skip
+        lines += [
+            f"- `{m['channel']}` ({m['meaning']}) every {m['every_s']:g} s, noise {m['noise']:g}: "
+            f"{m['separation_noise_stds']:g}"
+            for m in r["measure_next"]
+        ]
     if r.get("at_term_budget"):
         lines += ["", "Against rivals with fewer terms, the correction cut to as many terms (named only if it still "
                   "leads by the equivalence margin):"]  # fmt: skip

@@ -42,9 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...observe import observe
 from ...physics import CellModel
-from ...variables import CHANNELS
 from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
 from ..core.hypotheses import Hypothesis, candidate_hypotheses
 from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
@@ -67,6 +65,7 @@ from .likelihood import (
     score_hypotheses,
     smooth_hypothesis,
 )
+from .measure_next import Recommendation, measure_next
 from .observations import Observations
 from .observed import estimate_states
 
@@ -77,7 +76,6 @@ __all__ = [
     "discover_partial",
     "distinct_physics",
     "fit_outcome",
-    "separating_channel",
 ]
 
 log = logging.getLogger(__name__)
@@ -154,6 +152,7 @@ class PartialRound:
     verdict: str
     dispersion: float = 1.0
     at_budget: list[BudgetComparison] = field(default_factory=list)
+    measure_next: list[Recommendation] = field(default_factory=list)
     form_share: float = 1.0  # the share of the flagged excess a correction leaving channels flagged must remove
 
     @property
@@ -223,22 +222,6 @@ def _same_physics(a: PartialCandidate, b: PartialCandidate, model: CellModel, x:
     difference = np.linalg.norm(np.nan_to_num((da - db) / scale))
     size = max(np.linalg.norm(np.nan_to_num(da / scale)), np.linalg.norm(np.nan_to_num(db / scale)), 1e-300)
     return bool(difference / size < SAME_PHYSICS)
-
-
-def separating_channel(
-    histories: Sequence[np.ndarray], u: np.ndarray, model: CellModel, measured: Sequence[str]
-) -> str | None:
-    """The unmeasured channel on which the smoothed state histories (each (n, K, 8)) that equally
-    good explanations imply differ most, relative to the channel's spread: measuring it would
-    tell them apart."""
-    unmeasured = [c for c in CHANNELS if c not in measured]
-    if len(histories) < 2 or not unmeasured:
-        return None
-    with np.errstate(all="ignore"):
-        values = [observe(model, x, u, unmeasured).reshape(-1, len(unmeasured)) for x in histories]
-    spread = np.nanstd(values[0], axis=0) + 1e-12
-    difference = np.nanmax([np.nanmean(np.abs(v - values[0]), axis=0) for v in values[1:]], axis=0)
-    return unmeasured[int(np.nanargmax(difference / spread))]
 
 
 def _feature_values(
@@ -527,7 +510,10 @@ def discover_round(
             top = ranking[0]
             outcome = fit_outcome(bool(top.features), top.explained, bool(np.isfinite(top.bic_gain)))
             verdict += f": the best, {top.hypothesis.key}, {outcome}"
-        return PartialRound(model, tests, ranking, None, [], True, None, verdict, dispersion)
+        fitted = [c for c in ranking if c.corrected is not None][:3]
+        return PartialRound(
+            model, tests, ranking, None, [], True, None, verdict, dispersion, measure_next=_next(fitted, obs)
+        )
     x = base.mean[..., :8]
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
     chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
@@ -546,17 +532,20 @@ def discover_round(
     budget = at_budget(chosen, fewer, model, settings, base.log_likelihood, samples, margin) if fewer else []
     matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
     undecided = different + matched
-    separated = None
-    if undecided:
-        histories = [c.smoothed.mean[..., :8] for c in [chosen, *undecided]]
-        separated = separating_channel(histories, obs.u, model, obs.channels)
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
+    if undecided:
+        recommended = _next([chosen, *undecided], obs)
+    elif unexplained and chosen.explained < settings.form_incomplete:
+        recommended = _next([chosen, *(c for c in ranking if c is not chosen and c.corrected is not None)][:3], obs)
+    else:
+        recommended = []
+    separated = recommended[0].channel if undecided and recommended else None
     if undecided:
         keys = ", ".join(c.hypothesis.key for c in [chosen, *undecided])
         what = f"not identifiable: {keys} explain the measured channels equally well"
         if matched:
             what += " (" + "; ".join(_budget_words(chosen, b) for b in budget if b.matched) + ")"
-        what += f"; measuring {separated} would separate them" if separated else ""
+        what += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
     elif unexplained and chosen.explained < settings.form_incomplete:
         what = (
             f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {unexplained} disagreeing beyond "
@@ -574,8 +563,14 @@ def discover_round(
     verdict = f"{what}; the correction {effect}"
     return PartialRound(
         model, tests, ranking, chosen, equivalent, not undecided, separated, verdict, dispersion, budget,
-        settings.form_incomplete,
+        recommended, settings.form_incomplete,
     )  # fmt: skip
+
+
+def _next(candidates: Sequence[PartialCandidate], obs: Observations) -> list[Recommendation]:
+    """What to measure to tell the first candidate from the others (:func:`.measure_next.measure_next`):
+    each seen through its corrected model, along the states its smoothed delta implies."""
+    return measure_next([(c.corrected, c.smoothed.mean[..., :8]) for c in candidates], obs)
 
 
 def _budget_words(chosen: PartialCandidate, b: BudgetComparison) -> str:

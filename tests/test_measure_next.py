@@ -1,0 +1,49 @@
+"""What to measure next: the measurements that would tell two explanations apart, in noise stds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from costa.discover.sparse.measure_next import measure_next, sampled_every
+from costa.discover.sparse.observations import Observations
+from costa.physics import true_model
+
+DAY = 8640  # steps of 10 s
+
+
+@pytest.fixture
+def two_explanations():
+    """Two cells over a day: the explanations' state histories differ only in the metal, by 30 kg."""
+    model = true_model()
+    x = np.tile(np.array([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0, 580.0]), (2, DAY, 1))
+    u = np.tile(np.array([18.0, 140000.0, 5.0, 5.0, 0.05]), (2, DAY, 1))
+    other = x.copy()
+    other[..., 4] += 30.0
+    return [(model, x), (model, other)], u
+
+
+def _obs(u, channels=("U_cell",), every=(1,)):
+    y = np.full((*u.shape[:2], len(channels)), np.nan)
+    for c, stride in enumerate(every):
+        y[:, ::stride, c] = 1.0
+    return Observations(y, u, tuple(channels), np.ones(len(channels)), 10.0)
+
+
+def test_the_measurement_that_separates_two_explanations_ranks_first(two_explanations):
+    """A metal dip of 15 kg noise every 8 h sees 3 samples a cell of a 30 kg difference: sqrt(2 x 3 x 2^2)
+    = 4.9 noise stds; daily, sqrt(2 x 1 x 2^2) = 2.8; channels on which they agree separate nothing."""
+    explanations, u = two_explanations
+    ranked = measure_next(explanations, _obs(u), top=10)
+    assert [(r.channel, r.every_s) for r in ranked[:2]] == [("x5", 28800), ("x5", 86400)]
+    assert ranked[0].separation == pytest.approx(np.sqrt(24)) and ranked[1].separation == pytest.approx(np.sqrt(8))
+    assert all(r.separation == 0 for r in ranked[2:])
+    assert "every 8 h" in ranked[0].describe()
+
+
+def test_a_channel_already_measured_as_often_is_not_recommended(two_explanations):
+    explanations, u = two_explanations
+    obs = _obs(u, ("U_cell", "x5"), (1, 2880))
+    assert sampled_every(obs) == {"U_cell": 10.0, "x5": 28800.0}
+    assert all(r.channel != "x5" for r in measure_next(explanations, obs, top=10))
+    assert measure_next(explanations[:1], obs) == []
