@@ -22,8 +22,10 @@ class DiscoverySettings:
     max_terms: int = 8  # terms in a closed form
     min_gain: float = 10.0  # BIC gain a term (and a correction) must bring
     min_explained: float = 0.5  # share of the excess residual a correction must remove
-    form_incomplete: float = 0.9  # partial: a correction leaving channels flagged is named ("form incomplete")
-    # only if it removes this share of their excess and no rival matches it with as many terms
+    # sparse data: a correction leaving channels flagged is named ("form incomplete") only if it removes
+    # this share of their excess and leaves no channel more than form_excess noise variances beyond noise
+    form_incomplete: float = 0.9
+    form_excess: float = 0.5
     screen_keep: int = 8  # hypotheses that get a closed-form fit after screening (plus ties)
     min_screen: float = 0.05  # ... if a free delta along them explains at least this share
     refine_iterations: int = 8  # Gauss-Newton iterations

@@ -29,7 +29,8 @@ One round on the current model:
    equivalence margin, or the two are undecided as in 4 (:func:`at_budget`);
 6. a named correction whose closed form leaves a channel slightly disagreeing (hundreds of
    thousands of samples make a small form error significant) stays named where it removes
-   ``form_incomplete`` of the flagged excess, and the verdict says "form incomplete" with what
+   ``form_incomplete`` of the flagged excess and leaves no channel more than ``form_excess`` noise
+   variances beyond noise, and the verdict says "form incomplete" with what
    is left; the rounds stop there.
 """
 
@@ -153,7 +154,7 @@ class PartialRound:
     dispersion: float = 1.0
     at_budget: list[BudgetComparison] = field(default_factory=list)
     measure_next: list[Recommendation] = field(default_factory=list)
-    form_share: float = 1.0  # the share of the flagged excess a correction leaving channels flagged must remove
+    form_tolerated: bool = False  # the chosen correction's form error is small (see :func:`_small_form_error`)
 
     @property
     def flagged(self) -> list[str]:
@@ -176,7 +177,7 @@ class PartialRound:
         ``form incomplete``)."""
         if self.chosen is None or not self.identifiable:
             return None
-        if self.unexplained and self.chosen.explained < self.form_share:
+        if self.unexplained and not self.form_tolerated:
             return None
         return self.chosen.hypothesis
 
@@ -533,9 +534,10 @@ def discover_round(
     matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
     undecided = different + matched
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
+    tolerated = _small_form_error(chosen, settings)
     if undecided:
         recommended = _next([chosen, *undecided], obs)
-    elif unexplained and chosen.explained < settings.form_incomplete:
+    elif unexplained and not tolerated:
         recommended = _next([chosen, *(c for c in ranking if c is not chosen and c.corrected is not None)][:3], obs)
     else:
         recommended = []
@@ -546,7 +548,7 @@ def discover_round(
         if matched:
             what += " (" + "; ".join(_budget_words(chosen, b) for b in budget if b.matched) + ")"
         what += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
-    elif unexplained and chosen.explained < settings.form_incomplete:
+    elif unexplained and not tolerated:
         what = (
             f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {unexplained} disagreeing beyond "
             "noise, so what is missing may be an explanation that did not fit here or more than one effect"
@@ -563,8 +565,18 @@ def discover_round(
     verdict = f"{what}; the correction {effect}"
     return PartialRound(
         model, tests, ranking, chosen, equivalent, not undecided, separated, verdict, dispersion, budget,
-        recommended, settings.form_incomplete,
+        recommended, tolerated,
     )  # fmt: skip
+
+
+def _small_form_error(chosen: PartialCandidate, settings: DiscoverySettings) -> bool:
+    """Whether what the chosen correction leaves is a small error of its closed form: it removes the
+    ``form_incomplete`` share of the flagged channels' excess, and no channel is left more than
+    ``form_excess`` noise variances beyond white unit noise (chi2/dof - 1 + bias^2).  Hundreds of
+    thousands of samples flag such an error; a correction that leaves 50 times the noise
+    variance, though it removed 96 % of a far larger excess, is not one."""
+    left = max((_excess([t], [t.channel]) for t in chosen.tests_after), default=0.0)
+    return chosen.explained >= settings.form_incomplete and left <= settings.form_excess
 
 
 def _next(candidates: Sequence[PartialCandidate], obs: Observations) -> list[Recommendation]:
