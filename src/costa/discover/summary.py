@@ -88,6 +88,7 @@ def sensors_summary(findings_paths: Sequence[str | Path], sensors: Sequence[str]
                 "verdict": _verdict(f),
                 "named": " then ".join(f["named"]) or "—",
                 "closed_form": " | ".join(c["closed_form"] for c in corrections),
+                "terms": " | ".join(str(len(c["terms"])) for c in corrections),
                 "error_before": errors.get(("starting model", window)),
                 "error_after": errors.get(("corrected model", window), errors.get(("starting model", window))),
                 "noise_floor": f["gap"]["noise_floor"][window],
