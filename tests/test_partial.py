@@ -131,6 +131,37 @@ def test_a_case_built_to_be_unidentifiable_names_nothing_and_says_what_would_sep
     assert found.chosen.explained > 0.95 and abs(abs(found.chosen.coefficients[0]) - 0.01) < 1e-4
 
 
+@pytest.mark.integration  # two minutes of CPU: three discoveries
+def test_the_first_round_split_into_jobs_gives_the_same_findings(default_config, tmp_path):
+    """The screen as one job and its candidates' fits as 1 or 4 jobs (discovery.search_jobs), gathered:
+    the same findings as one process, number for number."""
+    from costa.discover.pipeline import search_settings
+    from costa.discover.sparse.pipeline import fit_first_round, screen_first_round
+
+    config = _reduced(default_config)
+    name = "paper_liquidus/partial"
+    train, held_out = case_tables(config, "paper_liquidus", "partial")
+    start = starting_model(config, "ablated")
+
+    def found(first_round=None) -> dict:
+        result = run_discovery(config, train, held_out, start, name, "test", None, first_round)
+        text = findings(result, name, start, {"data": "test"})
+        return {k: v for k, v in text.items() if k != "discovery_seconds"}
+
+    settings = search_settings(config, name)
+    screen = tmp_path / "screen.pkl"
+    screen_first_round(train, start, settings, {}, "test", screen)
+    split = {}
+    for jobs in (1, 4):
+        fits = [tmp_path / f"fit_{job}_of_{jobs}.pkl" for job in range(jobs)]
+        for job, path in enumerate(fits):
+            fit_first_round(train, start, settings, {}, "test", screen, job, jobs, path)
+        split[jobs] = found((screen, fits))
+    one_process = found()
+    assert one_process["named"] == ["part:liquidus_temperature"]
+    assert split[1] == one_process and split[4] == one_process
+
+
 def _sensor_findings(config: dict, case: str, sensors: str) -> dict:
     spec = CASES[case]
     train, held_out = case_tables(config, case, sensors)

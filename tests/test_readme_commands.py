@@ -238,6 +238,9 @@ def check_sensors_dry_run(command, smoke_run, tmp_path):
     result = run_command(smoke_run, f"{on_smoke(command)} --dry-run")
     assert result.returncode == 0, result.stderr[-4000:]
     assert "collect_sensors" in result.stdout and "results/smoke/discovery/sensors.csv" in result.stdout
+    # a sparse set's first round as a screen and discovery.search_jobs (4) fit jobs; the full set in one job
+    assert "discovery/no_effect/sensors/plant/search/fit_3_of_4.pkl" in result.stdout
+    assert "discovery/no_effect/sensors/full/search" not in result.stdout
 
 
 def check_nine_cases_dry_run(command, smoke_run, tmp_path):

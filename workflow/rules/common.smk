@@ -170,18 +170,11 @@ def peers_config(wildcards):
 
 
 def discovery_config(wildcards):
-    """What a discovery run depends on (not the training or the replication's sizes)."""
-    return {
-        key: config[key]
-        for key in (
-            "seed",
-            "physics",
-            "simulation",
-            "evaluation",
-            "discovery",
-            "training",
-        )
-    }
+    """What a discovery run depends on (not the training or the replication's sizes, nor how many
+    jobs its search is split into, which changes no finding)."""
+    chosen = {key: config[key] for key in ("seed", "physics", "simulation", "evaluation", "training")}
+    chosen["discovery"] = {k: v for k, v in config["discovery"].items() if k != "search_jobs"}
+    return chosen
 
 
 def starting_model_name(wildcards):

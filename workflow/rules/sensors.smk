@@ -22,10 +22,84 @@ rule discovery_sensor_data:
         "../scripts/discovery_case_data.py"
 
 
+def split_search(wildcards):
+    """A sparse sensor set's first-round records: its screen and discovery.search_jobs shares of the
+    fits (:mod:`costa.discover.sparse.split`); none where every state is measured at every step."""
+    channels = config["discovery"]["sensor_sets"][wildcards.sensors]["channels"]
+    every_step = config["simulation"]["dt_s"]
+    if all(channels.get(f"x{i}", {}).get("every_s") == every_step for i in range(1, 9)):
+        return {}
+    prefix = out(f"discovery/{wildcards.case}/sensors/{wildcards.sensors}/search")
+    jobs = config["discovery"]["search_jobs"]
+    return {"screen": f"{prefix}/screen.pkl", "fits": [f"{prefix}/fit_{j}_of_{jobs}.pkl" for j in range(jobs)]}
+
+
+rule sensors_screen:
+    """The first round of a sparse search, up to its candidates: the channel tests and every
+    hypothesis screened (the fits run as separate jobs)."""
+    input:
+        train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
+        code=DISCOVERY_CODE + package_files("sensors.py"),
+    output:
+        screen=out("discovery/{case}/sensors/{sensors}/search/screen.pkl"),
+    log:
+        out("discovery/{case}/sensors/{sensors}/logs/screen.log"),
+    benchmark:
+        out("discovery/{case}/sensors/{sensors}/benchmarks/screen.tsv")
+    wildcard_constraints:
+        case="|".join(SHIPPED_CASES) or "^$",
+        sensors="|".join(config["discovery"]["sensor_sets"]),
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=6000,
+    params:
+        config=discovery_config,
+        starting_model=starting_model_name,
+        name=lambda wildcards: f"{wildcards.case}/{wildcards.sensors}",
+        declared_noise=declared_noise,
+    script:
+        "../scripts/sensors_search.py"
+
+
+rule sensors_fit:
+    """One share of the first round's candidate fits: job {job} of {jobs} fits candidates
+    {job}, {job} + {jobs}, ..."""
+    input:
+        train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
+        screen=out("discovery/{case}/sensors/{sensors}/search/screen.pkl"),
+        code=DISCOVERY_CODE + package_files("sensors.py"),
+    output:
+        fits=out("discovery/{case}/sensors/{sensors}/search/fit_{job}_of_{jobs}.pkl"),
+    log:
+        out("discovery/{case}/sensors/{sensors}/logs/fit_{job}_of_{jobs}.log"),
+    benchmark:
+        out("discovery/{case}/sensors/{sensors}/benchmarks/fit_{job}_of_{jobs}.tsv")
+    wildcard_constraints:
+        case="|".join(SHIPPED_CASES) or "^$",
+        sensors="|".join(config["discovery"]["sensor_sets"]),
+        job=r"\d+",
+        jobs=r"\d+",
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=6000,
+    params:
+        config=discovery_config,
+        starting_model=starting_model_name,
+        name=lambda wildcards: f"{wildcards.case}/{wildcards.sensors}",
+        declared_noise=declared_noise,
+    script:
+        "../scripts/sensors_search.py"
+
+
 rule discover_with_sensors:
     """Discovery on what one sensor set measures: the estimator's channel tests, the named (or
     not identifiable) effect, its closed form, and the gap on the measured channels."""
     input:
+        unpack(split_search),
         train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
         held_out=out("discovery/{case}/sensors/{sensors}/data/held_out.parquet"),
         code=DISCOVERY_CODE + package_files("sensors.py"),

@@ -18,7 +18,11 @@ channels = channel_report(pd.concat([train, held_out], ignore_index=True))
 constants = constants_table(config["physics"])
 log.info("measured channels:\n%s", format_channel_report(channels))
 log.info("the cell's constants:\n%s", constants.to_string(index=False))
-result = run_discovery(config, train, held_out, start, case, snakemake.input.train, snakemake.params.declared_noise)
+# a sparse sensor set's first round, made by separate jobs (rules sensors_screen, sensors_fit)
+first_round = (snakemake.input.screen, list(snakemake.input.fits)) if "screen" in snakemake.input.keys() else None
+result = run_discovery(
+    config, train, held_out, start, case, snakemake.input.train, snakemake.params.declared_noise, first_round
+)
 found = findings(result, case, start, snakemake.params.meta, channels, constants)
 with open(snakemake.output.findings, "w") as handle:
     json.dump(found, handle, indent=1)

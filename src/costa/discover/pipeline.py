@@ -8,7 +8,7 @@ trajectories here too.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -92,6 +92,11 @@ def settings_from_config(config: Mapping) -> DiscoverySettings:
     )  # fmt: skip
 
 
+def search_settings(config: Mapping, name: str) -> DiscoverySettings:
+    """How the discovery of data set ``name`` decides, with its own random stream."""
+    return replace(settings_from_config(config), seed=seeds.stream(config["seed"], 0, f"discovery/{name}/search"))
+
+
 def run_discovery(
     config: Mapping,
     train: pd.DataFrame,
@@ -100,20 +105,22 @@ def run_discovery(
     name: str,
     source: str,
     declared_noise: Mapping[str, float] | None = None,
+    first_round: tuple[str | Path, Sequence[str | Path]] | None = None,
 ) -> DiscoveryResult | PartialResult:
     """Discover on ``train``, then measure the gap of the starting and corrected models on ``held_out``.
 
     Tables with every state at every step take the weak-form route (:mod:`.full_state`); any
     other table (states missing or sampled now and then, outputs such as the cell voltage) the
     estimator's (:mod:`.sparse`), with ``declared_noise`` for channels too sparse to estimate it.
-    ``name`` keys the random streams; ``source`` names the data in error messages.
+    ``name`` keys the random streams; ``source`` names the data in error messages;
+    ``first_round``: the sparse route's first-round records, where separate jobs made them.
     """
-    settings = replace(settings_from_config(config), seed=seeds.stream(config["seed"], 0, f"discovery/{name}/search"))
+    settings = search_settings(config, name)
     floor_rng = seeds.numpy_generator(config["seed"], 0, f"discovery/{name}/floor")
     if incomplete_states(train) or incomplete_states(held_out):
         evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
         result = run_partial_discovery(
-            train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng
+            train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng, first_round
         )
     else:
         result = run_full_state_discovery(

@@ -11,8 +11,9 @@ against what was measured after, beside the noise floor of the same procedure.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -24,9 +25,10 @@ from ..core.settings import DiscoverySettings
 from .gap import measured_gap, measured_noise_floor
 from .observations import Observations, channel_noise
 from .observed import START_SEARCH_S, start_is_searched
-from .search import PartialRound, discover_partial
+from .search import PartialRound, discover_partial, fit_share, screen_round
+from .split import read_fits, read_screen, write_fits, write_screen
 
-__all__ = ["PartialResult", "observations", "run_partial_discovery"]
+__all__ = ["PartialResult", "fit_first_round", "observations", "run_partial_discovery", "screen_first_round"]
 
 
 @dataclass
@@ -82,27 +84,11 @@ def _estimation_windows(
     return replace(evaluation, windows=windows, horizons={w: stop for w, (_, stop) in windows.items()}), needed
 
 
-def run_partial_discovery(
-    train: pd.DataFrame,
-    held_out: pd.DataFrame,
-    start: CellModel,
-    settings: DiscoverySettings,
-    evaluation: EvaluationSettings,
-    declared_noise: Mapping[str, float],
-    source: str,
-    rng: np.random.Generator,
-) -> PartialResult:
-    """Discover on ``train``; the gap of the starting and corrected models on ``held_out``.
-
-    ``evaluation`` gives the gap's windows; the state a rollout starts from is estimated
-    from the first window's samples.
-    """
+def checked_observations(
+    train: pd.DataFrame, declared_noise: Mapping[str, float], source: str, settings: DiscoverySettings
+) -> Observations:
+    """The training table's observations, refused with one clear error where too short to test."""
     obs = observations(train, declared_noise, source)
-    held = observations(held_out, declared_noise, source)
-    if held.channels != obs.channels:
-        raise TrajectoryDataError(
-            f"{source}: the held-out trajectories measure {list(held.channels)}, the others {list(obs.channels)}"
-        )
     needed = obs.settling_steps + 4 * settings.window + 1
     if obs.y.shape[1] < needed:
         settling = (
@@ -114,10 +100,65 @@ def run_partial_discovery(
             f"{source}: trajectories of {obs.y.shape[1]} samples are too short; discovery needs at least "
             f"{needed} (4 windows of discovery.window_steps = {settings.window}{settling})"
         )
+    return obs
+
+
+def screen_first_round(
+    train: pd.DataFrame, start: CellModel, settings: DiscoverySettings, declared_noise: Mapping[str, float],
+    source: str, path: str | Path,
+) -> None:  # fmt: skip
+    """The first round's screen (:func:`.search.screen_round`), written to ``path`` for the fit jobs
+    and the gather (:mod:`.split`)."""
+    obs = checked_observations(train, declared_noise, source, settings).with_start(start)
+    screen = screen_round(start, obs, settings, np.random.default_rng(settings.seed), named=())
+    write_screen(screen, obs.start, path)
+
+
+def fit_first_round(
+    train: pd.DataFrame, start: CellModel, settings: DiscoverySettings, declared_noise: Mapping[str, float],
+    source: str, screen_path: str | Path, job: int, jobs: int, path: str | Path,
+) -> None:  # fmt: skip
+    """Job ``job`` of ``jobs``: fit the screen's candidates job, job + jobs, ... and write them to ``path``."""
+    screen, searched = read_screen(screen_path, start)
+    obs = replace(checked_observations(train, declared_noise, source, settings), start=searched)
+    share = slice(job, None, jobs)
+    fits = fit_share(screen, start, obs, settings, False, share)
+    write_fits(fits, range(len(screen.candidates))[share], path)
+
+
+def run_partial_discovery(
+    train: pd.DataFrame,
+    held_out: pd.DataFrame,
+    start: CellModel,
+    settings: DiscoverySettings,
+    evaluation: EvaluationSettings,
+    declared_noise: Mapping[str, float],
+    source: str,
+    rng: np.random.Generator,
+    first_round: tuple[str | Path, Sequence[str | Path]] | None = None,
+) -> PartialResult:
+    """Discover on ``train``; the gap of the starting and corrected models on ``held_out``.
+
+    ``evaluation`` gives the gap's windows; the state a rollout starts from is estimated
+    from the first window's samples.  ``first_round``: the paths of the first round's screen
+    and fit records, where separate jobs made them (:func:`screen_first_round`,
+    :func:`fit_first_round`); the findings are the same.
+    """
+    obs = checked_observations(train, declared_noise, source, settings)
+    held = observations(held_out, declared_noise, source)
+    if held.channels != obs.channels:
+        raise TrajectoryDataError(
+            f"{source}: the held-out trajectories measure {list(held.channels)}, the others {list(obs.channels)}"
+        )
     evaluation, start_steps = _estimation_windows(evaluation, held, source)  # checked before the search runs
     started = time.perf_counter()
-    obs = obs.with_start(start)
-    rounds = discover_partial(start, obs, settings)
+    if first_round is None:
+        obs = obs.with_start(start)
+        rounds = discover_partial(start, obs, settings)
+    else:
+        screen, searched = read_screen(first_round[0], start)
+        obs = replace(obs, start=searched)
+        rounds = discover_partial(start, obs, settings, (screen, read_fits(first_round[1], start, obs)))
     seconds = time.perf_counter() - started
     corrected = next((r.corrected for r in reversed(rounds) if r.corrected is not None), start)
     scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)

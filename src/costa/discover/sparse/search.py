@@ -72,11 +72,15 @@ from .observed import estimate_states
 
 __all__ = [
     "BudgetComparison",
+    "Screen",
     "PartialRound",
     "at_budget",
+    "decide_round",
     "discover_partial",
     "distinct_physics",
     "fit_outcome",
+    "fit_share",
+    "screen_round",
 ]
 
 log = logging.getLogger(__name__)
@@ -96,7 +100,7 @@ class PartialCandidate(FittedTerms):
     corrected model searches itself, from which it was tested (and a later round runs)."""
 
     score: HypothesisScore
-    smoothed: Smoothed
+    states: np.ndarray  # the states (n, K, 8) smoothed along its free delta
     features: list[Feature]
     coefficients: np.ndarray
     samples: np.ndarray  # bootstrap coefficients (resamples, terms)
@@ -391,13 +395,13 @@ def _fit(
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
     if mostly_lost(np.isfinite(smoothed.mean).all((1, 2))):
         log.info("%s: its filter is lost on half the trajectories or more, not fitted", score.hypothesis.key)
-        return PartialCandidate(score, smoothed, [], np.zeros(0), np.zeros((settings.bootstrap, 0)), {})
+        return PartialCandidate(score, smoothed.mean[..., :8], [], np.zeros(0), np.zeros((settings.bootstrap, 0)), {})
     rng = np.random.default_rng(seed)
     *fit, inclusion = _closed_form(score.hypothesis, model, smoothed, obs, settings, rng, rich)
     features, coefficients, _ = fit
     placed = obs.searched_again(score.hypothesis.corrected(model, features, coefficients)) if features else obs
     features, coefficients, samples = _refined(score.hypothesis, model, placed, fit, smoothed, rich, rng)
-    candidate = PartialCandidate(score, smoothed, features, coefficients, samples, inclusion)
+    candidate = PartialCandidate(score, smoothed.mean[..., :8], features, coefficients, samples, inclusion)
     if not features:
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
@@ -471,6 +475,52 @@ def _score(candidates: Sequence[PartialCandidate], base_likelihood: np.ndarray, 
         c.bic_gain = 2 * gain - len(c.features) * np.log(samples) if np.isfinite(gain) else -np.inf
 
 
+@dataclass
+class Screen:
+    """A round's channel tests and screen: what its fits and its decision read.  ``candidates``
+    go on to a fit, each with ``seed``; ``log_likelihood`` (n,) and ``states`` (n, K/16, 8), every
+    16th step, are the uncorrected model's filter."""
+
+    tests: list[ChannelTest]
+    log_likelihood: np.ndarray
+    states: np.ndarray
+    candidates: list[HypothesisScore]
+    seed: int
+
+    @property
+    def flagged(self) -> list[str]:
+        return [t.channel for t in self.tests if t.flagged]
+
+
+def screen_round(
+    model: CellModel, obs: Observations, settings: DiscoverySettings, rng: np.random.Generator, named: Sequence[str]
+) -> Screen:
+    """Test the channels; where one disagrees, screen every hypothesis and keep the best of each
+    physics (steps 1-2 of the module docstring).  Draws the round's fitting seed from ``rng``."""
+    tests, base = _tests(model, obs, settings)
+    states = base.mean[:, ::16, :8]
+    if not any(t.flagged for t in tests):
+        return Screen(tests, base.log_likelihood, states, [], 0)
+    screen = slice(0, max(1, settings.screen_steps // obs.y.shape[1]))
+    few, few_states = obs.subset(screen), base.mean[screen]
+    started = time.perf_counter()
+    screened, _ = score_hypotheses(model, candidate_hypotheses(model), few, settings.window, few_states, settings.walks)
+    log.info(
+        "screened %d hypotheses on %d trajectories in %.1f s", len(screened), len(few.y), time.perf_counter() - started
+    )
+    seed = int(rng.integers(2**63))
+    screen_x, screen_u = (a[:, ::16].reshape(-1, a.shape[-1]) for a in (few_states, few.u))
+    candidates = distinct_physics(best_screened(screened, settings), model, screen_x, screen_u, named)
+    return Screen(tests, base.log_likelihood, states, candidates, seed)
+
+
+def fit_share(
+    screen: Screen, model: CellModel, obs: Observations, settings: DiscoverySettings, rich: bool, share: slice
+) -> list[PartialCandidate]:
+    """The screen's candidates in ``share`` (e.g. ``slice(j, None, jobs)``: job j of ``jobs``), each fitted."""
+    return [_fit(s, model, obs, settings, screen.seed, rich, screen.tests) for s in screen.candidates[share]]
+
+
 def discover_round(
     model: CellModel,
     obs: Observations,
@@ -480,23 +530,25 @@ def discover_round(
     named: Sequence[str] = (),
 ) -> PartialRound:
     """One round on the current model (see the module docstring); ``named``: what earlier rounds named."""
-    tests, base = _tests(model, obs, settings)
-    flagged = [t.channel for t in tests if t.flagged]
+    screen = screen_round(model, obs, settings, rng, named)
+    return decide_round(model, obs, settings, screen, fit_share(screen, model, obs, settings, rich, slice(None)), named)
+
+
+def decide_round(
+    model: CellModel,
+    obs: Observations,
+    settings: DiscoverySettings,
+    screen: Screen,
+    ranking: list[PartialCandidate],
+    named: Sequence[str] = (),
+) -> PartialRound:
+    """Score the fitted candidates (``ranking``, in the screen's order) and decide what the round names
+    (steps 3-6 of the module docstring)."""
+    tests, flagged = screen.tests, screen.flagged
     if not flagged:
         return PartialRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
-    screen = slice(0, max(1, settings.screen_steps // obs.y.shape[1]))
-    few, states = obs.subset(screen), base.mean[screen]
-    started = time.perf_counter()
-    screened, _ = score_hypotheses(model, candidate_hypotheses(model), few, settings.window, states, settings.walks)
-    log.info(
-        "screened %d hypotheses on %d trajectories in %.1f s", len(screened), len(few.y), time.perf_counter() - started
-    )
-    seed = rng.integers(2**63)
-    screen_x, screen_u = (a[:, ::16].reshape(-1, a.shape[-1]) for a in (states, few.u))
-    candidates = distinct_physics(best_screened(screened, settings), model, screen_x, screen_u, named)
-    ranking = [_fit(s, model, obs, settings, seed, rich, tests) for s in candidates]
-    _score(ranking, base.log_likelihood, int(np.isfinite(obs.y).sum()))
-    ranking.sort(key=lambda c: (-c.rescued, -c.bic_gain))
+    _score(ranking, screen.log_likelihood, int(np.isfinite(obs.y).sum()))
+    ranking = sorted(ranking, key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)
     good = [
         c
@@ -515,10 +567,10 @@ def discover_round(
         return PartialRound(
             model, tests, ranking, None, [], True, None, verdict, dispersion, measure_next=_next(fitted, obs)
         )
-    x = base.mean[..., :8]
+    x = screen.states  # every 16th step
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
     chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
-    different = [c for c in equivalent if not _same_physics(c, chosen, model, x[:, ::16], obs.u[:, ::16])]
+    different = [c for c in equivalent if not _same_physics(c, chosen, model, x, obs.u[:, ::16])]
     fewer = [
         c
         for c in ranking
@@ -526,11 +578,11 @@ def discover_round(
         and c not in equivalent
         and 0 < len(c.features) < len(chosen.features)
         and np.isfinite(c.bic_gain)
-        and not _same_physics(c, chosen, model, x[:, ::16], obs.u[:, ::16])
+        and not _same_physics(c, chosen, model, x, obs.u[:, ::16])
     ]
     samples = int(np.isfinite(obs.y).sum())
     margin = settings.equivalence * dispersion
-    budget = at_budget(chosen, fewer, model, settings, base.log_likelihood, samples, margin) if fewer else []
+    budget = at_budget(chosen, fewer, model, settings, screen.log_likelihood, samples, margin) if fewer else []
     matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
     undecided = different + matched
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
@@ -582,7 +634,7 @@ def _small_form_error(chosen: PartialCandidate, settings: DiscoverySettings) -> 
 def _next(candidates: Sequence[PartialCandidate], obs: Observations) -> list[Recommendation]:
     """What to measure to tell the first candidate from the others (:func:`.measure_next.measure_next`):
     each seen through its corrected model, along the states its smoothed delta implies."""
-    return measure_next([(c.corrected, c.smoothed.mean[..., :8]) for c in candidates], obs)
+    return measure_next([(c.corrected, c.states) for c in candidates], obs)
 
 
 def _budget_words(chosen: PartialCandidate, b: BudgetComparison) -> str:
@@ -593,20 +645,32 @@ def _budget_words(chosen: PartialCandidate, b: BudgetComparison) -> str:
     )
 
 
-def discover_partial(model: CellModel, obs: Observations, settings: DiscoverySettings) -> list[PartialRound]:
+def discover_partial(
+    model: CellModel,
+    obs: Observations,
+    settings: DiscoverySettings,
+    first_round: tuple[Screen, list[PartialCandidate]] | None = None,
+) -> list[PartialRound]:
     """Rounds until no channel disagrees, nothing explains it, a correction explains too little,
     the measurements cannot tell the explanations apart, the best correction leaves a channel
     disagreeing (in both cases a further round would explain what is left of a guess), or
     ``max_rounds``.  Each round after the first runs from the start its model (the one corrected
     so far) searches itself, the one its correction was tested from (``placed``): from the
     uncorrected model's starts a right correction can look wrong, and a second round name an
-    effect that is not there."""
+    effect that is not there.  ``first_round``: the first round's screen and fits, made by
+    separate jobs (:mod:`.split`); the rounds are the same as without."""
     rng = np.random.default_rng(settings.seed)
     rounds: list[PartialRound] = []
     current, placed, rich = model, obs, False
-    for _ in range(settings.max_rounds):
+    for index in range(settings.max_rounds):
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
-        found = discover_round(current, placed, settings, rng, rich, named)
+        if index == 0 and first_round is not None:
+            screen, fits = first_round
+            if screen.candidates and int(rng.integers(2**63)) != screen.seed:
+                raise ValueError("the first round's screen was made with another discovery seed; run it again")
+            found = decide_round(current, placed, settings, screen, fits, named)
+        else:
+            found = discover_round(current, placed, settings, rng, rich, named)
         rounds.append(found)
         if found.named is None or found.form_incomplete:
             break

@@ -1,0 +1,98 @@
+"""A sparse search's first round as separate jobs: the screen, shares of its fits, and a gather.
+
+The screen (channel tests, every hypothesis screened) and each candidate's fit are the
+expensive steps of a round on a pot line's record, and the fits are independent given the
+screen.  The workflow runs the screen as one job, the fits as ``jobs`` jobs (job j fits
+candidates j, j + jobs, ...), and the discovery job gathers them, decides the round and
+runs any later round itself: ``--cores N`` or a cluster spreads one case.  The records
+written between them hold numbers only (a hypothesis by its key, a closed form by its terms'
+names); the corrected models are rebuilt from them, so the rounds are the same whatever the
+split, and the same as in one process.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pickle
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ...physics import CellModel
+from ..core.hypotheses import candidate_hypotheses
+from .estimator import ChannelTest
+from .likelihood import HypothesisScore
+from .observations import Observations
+from .search import PartialCandidate, Screen
+
+__all__ = ["read_fits", "read_screen", "write_fits", "write_screen"]
+
+
+def _score_record(score) -> dict[str, Any]:
+    return {f.name: getattr(score, f.name) for f in dataclasses.fields(score) if f.name != "hypothesis"} | {
+        "hypothesis": score.hypothesis.key
+    }
+
+
+def _score(record: dict[str, Any], hypotheses: dict) -> HypothesisScore:
+    return HypothesisScore(**(record | {"hypothesis": hypotheses[record["hypothesis"]]}))
+
+
+def write_screen(screen: Screen, start, path: str | Path) -> None:
+    """The screen and the first states the starting model placed the cells at, ``start`` (n, 8) or None."""
+    record = {
+        "tests": [dataclasses.asdict(t) for t in screen.tests],
+        "log_likelihood": screen.log_likelihood,
+        "states": screen.states,
+        "candidates": [_score_record(s) for s in screen.candidates],
+        "seed": screen.seed,
+        "start": start,
+    }
+    Path(path).write_bytes(pickle.dumps(record))
+
+
+def read_screen(path: str | Path, model: CellModel) -> tuple[Screen, Any]:
+    """The screen (its candidates' hypotheses those of ``model``) and the searched start."""
+    record = pickle.loads(Path(path).read_bytes())
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    start = record.pop("start")
+    record["tests"] = [ChannelTest(**t) for t in record["tests"]]
+    record["candidates"] = [_score(s, hypotheses) for s in record["candidates"]]
+    return Screen(**record), start
+
+
+def write_fits(fits: Sequence[PartialCandidate], indices: Sequence[int], path: str | Path) -> None:
+    """Fitted candidates (the screen's ``indices``) as numbers: the corrected model and the
+    observations it was placed in are rebuilt on reading."""
+    records = []
+    for index, c in zip(indices, fits, strict=True):
+        fields = {f.name: getattr(c, f.name) for f in dataclasses.fields(c)}
+        fields |= {
+            "score": _score_record(c.score),
+            "features": [f.name for f in c.features],
+            "corrected": None,
+            "placed": None if c.placed is None else c.placed.start,
+        }
+        records.append((index, fields))
+    Path(path).write_bytes(pickle.dumps(records))
+
+
+def read_fits(paths: Sequence[str | Path], model: CellModel, obs: Observations) -> list[PartialCandidate]:
+    """Every fitted candidate of the fit jobs' records, in the screen's order, rebuilt on ``model``
+    and the observations ``obs`` (each placed at the start it searched itself)."""
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    rows = sorted((row for path in paths for row in pickle.loads(Path(path).read_bytes())), key=lambda r: r[0])
+    if [index for index, _ in rows] != list(range(len(rows))):
+        raise ValueError(f"the fit records {list(map(str, paths))} do not hold each candidate once")
+    fits = []
+    for _, fields in rows:
+        score = _score(fields["score"], hypotheses)
+        h = score.hypothesis
+        library = {f.name: f for f in h.features(False)}
+        features = [library[name] for name in fields["features"]]
+        candidate = PartialCandidate(**(fields | {"score": score, "features": features, "placed": None}))
+        if candidate.log_likelihood is not None:  # fitted and tested: from the start it searched itself
+            candidate.placed = dataclasses.replace(obs, start=fields["placed"])
+            candidate.corrected = h.corrected(model, features, candidate.coefficients)
+        fits.append(candidate)
+    return fits
