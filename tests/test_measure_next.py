@@ -47,3 +47,18 @@ def test_a_channel_already_measured_as_often_is_not_recommended(two_explanations
     assert sampled_every(obs) == {"U_cell": 10.0, "x5": 28800.0}
     assert all(r.channel != "x5" for r in measure_next(explanations, obs, top=10))
     assert measure_next(explanations[:1], obs) == []
+
+
+def test_one_cell_whose_filter_ran_away_does_not_decide():
+    """An explanation whose smoothed wall temperature ran off to 1e6 degC on one cell of three does
+    not make a shell thermocouple the best measurement: the median cell counts, and there the two
+    agree on the wall."""
+    model = true_model()
+    x = np.tile(np.array([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0, 580.0]), (3, DAY, 1))
+    u = np.tile(np.array([18.0, 140000.0, 5.0, 5.0, 0.05]), (3, DAY, 1))
+    other = x.copy()
+    other[..., 4] += 30.0
+    other[0, :, 7] = 1e6
+    ranked = measure_next([(model, x), (model, other)], _obs(u), top=10)
+    assert ranked[0].channel == "x5" and ranked[0].separation == pytest.approx(np.sqrt(3 * 3 * 4))
+    assert [r.separation for r in ranked if r.channel == "x8"] == [0.0]

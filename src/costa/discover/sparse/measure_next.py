@@ -6,8 +6,10 @@ over the record: the smoothed states under its corrected model, on the record's 
 inputs.  A measurement that samples a channel where those histories differ by many noise
 stds would separate them.  Each instrument a pot line can add (:data:`costa.sensors.AVAILABLE`)
 is scored by the expected separation of the first explanation from the nearest other one:
-sqrt(sum over its samples of (difference / noise std)^2), summed over the cells, in noise
-stds; the list is ranked by it.  A channel already measured as often is left out.
+per cell sqrt(sum over its samples of (difference / noise std)^2), combined over the n cells
+as sqrt(n x the median cell's square), in noise stds (a cell whose filter ran away under one
+explanation would otherwise decide alone); the list is ranked by it.  A channel already
+measured as often is left out.
 """
 
 from __future__ import annotations
@@ -51,6 +53,12 @@ def _interval(seconds: float) -> str:
     return f"{seconds:g} s"
 
 
+def _separation(z: np.ndarray) -> float:
+    """sqrt(n x median over the n cells of sum_k z_k^2) for differences z (n, samples) in noise stds."""
+    per_cell = np.nansum(z**2, axis=1)
+    return float(np.sqrt(len(per_cell) * np.median(per_cell)))
+
+
 def sampled_every(obs: Observations) -> dict[str, float]:
     """Each measured channel's typical sampling interval [s] (the median spacing of its samples)."""
     every = {}
@@ -83,8 +91,6 @@ def measure_next(
         stride = max(1, round(sensor.every_s / obs.dt))
         c = channels.index(sensor.channel)
         first = values[0][:, ::stride, c]
-        separations = [
-            np.sqrt(np.nansum(((first - other[:, ::stride, c]) / sensor.noise) ** 2)) for other in values[1:]
-        ]
+        separations = [_separation((first - other[:, ::stride, c]) / sensor.noise) for other in values[1:]]
         found.append(Recommendation(sensor.channel, sensor.every_s, sensor.noise, float(min(separations))))
     return sorted(found, key=lambda r: -r.separation)[:top]
