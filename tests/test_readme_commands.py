@@ -275,6 +275,11 @@ def check_benchmark(command, smoke_run, tmp_path):
     assert result.returncode == 0, result.stderr[-4000:]
 
 
+def check_candidate_benchmark(command, smoke_run, tmp_path):
+    result = run_command(smoke_run, f"{command} --cells 2 --hours 1 --candidates 4", timeout=600)
+    assert result.returncode == 0 and "equal to rounding" in result.stdout, result.stderr[-4000:]
+
+
 def check_suite_is_collected(command, smoke_run, tmp_path):
     result = run_command(REPOSITORY, f"{command} --collect-only -q -p no:cacheprovider")
     assert result.returncode == 0 and re.search(r"\d+/\d+ tests collected", result.stdout), result.stdout[-2000:]
@@ -317,6 +322,7 @@ RUN_CHECKS = {
     'python benchmarks/bound_variants.py --reps "" replicates/r1/': check_bound_variants,
     "snakemake --report results/snakemake_report.html": check_report,
     "python benchmarks/train_speed.py": check_benchmark,
+    "python benchmarks/candidate_scores.py": check_candidate_benchmark,
     "pytest -m slow": check_suite_is_collected,
     "pytest -m integration": check_suite_is_collected,
     "snakemake --cores 2 --software-deployment-method conda": check_conda_dry_run,

@@ -172,8 +172,13 @@ def peers_config(wildcards):
 def discovery_config(wildcards):
     """What a discovery run depends on (not the training or the replication's sizes, nor how many
     jobs its search is split into, which changes no finding)."""
-    chosen = {key: config[key] for key in ("seed", "physics", "simulation", "evaluation", "training")}
-    chosen["discovery"] = {k: v for k, v in config["discovery"].items() if k != "search_jobs"}
+    chosen = {
+        key: config[key]
+        for key in ("seed", "physics", "simulation", "evaluation", "training")
+    }
+    chosen["discovery"] = {
+        k: v for k, v in config["discovery"].items() if k != "search_jobs"
+    }
     return chosen
 
 
@@ -314,3 +319,19 @@ NOISE_RUNS = [
 
 def beyond_targets():
     return [out("beyond/noise.csv"), out("beyond/noise.png")] if NOISE_RUNS else []
+
+
+def split_search(wildcards):
+    """A sparse sensor set's first-round records: its screen and discovery.search_jobs shares of the
+    fits (:mod:`costa.discover.sparse.split`); none where every state is measured at every step.
+    """
+    channels = config["discovery"]["sensor_sets"][wildcards.sensors]["channels"]
+    every_step = config["simulation"]["dt_s"]
+    if all(channels.get(f"x{i}", {}).get("every_s") == every_step for i in range(1, 9)):
+        return {}
+    prefix = out(f"discovery/{wildcards.case}/sensors/{wildcards.sensors}/search")
+    jobs = config["discovery"]["search_jobs"]
+    return {
+        "screen": f"{prefix}/screen.pkl",
+        "fits": [f"{prefix}/fit_{j}_of_{jobs}.pkl" for j in range(jobs)],
+    }

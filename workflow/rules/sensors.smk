@@ -22,18 +22,6 @@ rule discovery_sensor_data:
         "../scripts/discovery_case_data.py"
 
 
-def split_search(wildcards):
-    """A sparse sensor set's first-round records: its screen and discovery.search_jobs shares of the
-    fits (:mod:`costa.discover.sparse.split`); none where every state is measured at every step."""
-    channels = config["discovery"]["sensor_sets"][wildcards.sensors]["channels"]
-    every_step = config["simulation"]["dt_s"]
-    if all(channels.get(f"x{i}", {}).get("every_s") == every_step for i in range(1, 9)):
-        return {}
-    prefix = out(f"discovery/{wildcards.case}/sensors/{wildcards.sensors}/search")
-    jobs = config["discovery"]["search_jobs"]
-    return {"screen": f"{prefix}/screen.pkl", "fits": [f"{prefix}/fit_{j}_of_{jobs}.pkl" for j in range(jobs)]}
-
-
 rule sensors_screen:
     """The first round of a sparse search, up to its candidates: the channel tests and every
     hypothesis screened (the fits run as separate jobs)."""
