@@ -138,7 +138,7 @@ def test_the_first_round_split_into_jobs_gives_the_same_findings(default_config,
     from costa.discover.pipeline import search_settings
     from costa.discover.sparse.pipeline import fit_first_round, screen_first_round
 
-    config = _reduced(default_config)
+    config = _reduced(default_config, steps=600)
     name = "paper_liquidus/partial"
     train, held_out = case_tables(config, "paper_liquidus", "partial")
     start = starting_model(config, "ablated")
