@@ -661,7 +661,7 @@ def discover_partial(
     separate jobs (:mod:`.split`); the rounds are the same as without."""
     rng = np.random.default_rng(settings.seed)
     rounds: list[PartialRound] = []
-    current, placed, rich = model, obs, False
+    current, placed = model, obs
     for index in range(settings.max_rounds):
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
         if index == 0 and first_round is not None:
@@ -670,10 +670,10 @@ def discover_partial(
                 raise ValueError("the first round's screen was made with another discovery seed; run it again")
             found = decide_round(current, placed, settings, screen, fits, named)
         else:
-            found = discover_round(current, placed, settings, rng, rich, named)
+            # a round goes on only after a clean name (no channel left flagged): the basic library again
+            found = discover_round(current, placed, settings, rng, False, named)
         rounds.append(found)
         if found.named is None or found.form_incomplete:
             break
         current, placed = found.corrected, found.chosen.placed
-        rich = any(t.flagged for t in found.chosen.tests_after)
     return rounds
