@@ -10,6 +10,10 @@ exit, one line naming the key, or the file, column and row, and every file under
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -170,23 +174,41 @@ def _write(folder, file, spoil, good_table) -> None:
         path.write_text(spoil)
 
 
-@pytest.mark.parametrize(("config", "message", "file", "spoil", "events"), CASES)
-def test_bad_input_stops_in_one_line_and_keeps_results(
-    smoke_run, good_table, tmp_path, config, message, file, spoil, events
-):
+def _bad_config(folder: Path, config, file, spoil, events, good_table) -> Path:
+    """The config file of one case, beside the measurement and events files it names."""
+    folder.mkdir()
     if file is not None:
-        _write(tmp_path, file, spoil, good_table)
-        user = f"path: {tmp_path / file}, name: cell"
+        _write(folder, file, spoil, good_table)
+        user = f"path: {folder / file}, name: cell"
         if events is not None:
-            (tmp_path / "events.csv").write_text(events)
-            user += f", events: {tmp_path / 'events.csv'}"
+            (folder / "events.csv").write_text(events)
+            user += f", events: {folder / 'events.csv'}"
         config = f"discovery: {{user_data: {{{user}}}}}"
-    bad = tmp_path / "bad.yaml"
+    bad = folder / "bad.yaml"
     bad.write_text(config + "\n")
+    return bad
+
+
+@pytest.fixture(scope="module")
+def outcomes(smoke_run, good_table, tmp_path_factory) -> tuple[dict, dict, dict]:
+    """Every case's run of the smoke command (side by side: each is one Python process that stops while
+    reading its config), with the result files' hashes before and after all of them."""
+    root = tmp_path_factory.mktemp("bad")
+    configs = {case.id: _bad_config(root / str(i), *case.values[:1], *case.values[2:], good_table)
+               for i, case in enumerate(CASES)}  # fmt: skip
     before = file_hashes(smoke_run / "results")
-    result = run_command(smoke_run, f"{SMOKE_COMMAND} {bad}")
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:
+        runs = dict(zip(configs, pool.map(lambda bad: run_command(smoke_run, f"{SMOKE_COMMAND} {bad}"),
+                                          configs.values()), strict=True))  # fmt: skip
+    return runs, before, file_hashes(smoke_run / "results")
+
+
+@pytest.mark.parametrize(("config", "message", "file", "spoil", "events"), CASES)
+def test_bad_input_stops_in_one_line_and_keeps_results(outcomes, request, config, message, file, spoil, events):
+    runs, before, after = outcomes
+    result = runs[request.node.callspec.id]
     assert result.returncode != 0
     lines = [line for line in (result.stdout + result.stderr).splitlines() if line.strip()]
     naming = [line for line in lines if message in line]
     assert len(naming) == 1 and naming[0] == lines[-1] and "Traceback" not in result.stderr, lines
-    assert file_hashes(smoke_run / "results") == before
+    assert after == before, "a bad input's run changed a file under results/"
