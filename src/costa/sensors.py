@@ -70,13 +70,15 @@ AVAILABLE: tuple[Sensor, ...] = (
 @dataclass(frozen=True)
 class SensorSet:
     """The channels a cell's instruments measure; ``hours``: the length of its trajectories, ``trajectories``
-    and ``held_out_trajectories``: how many (None: the defaults)."""
+    and ``held_out_trajectories``: how many (None: the defaults); ``operation``: how the measured cells
+    are run (:attr:`costa.simulate.SimulationSettings.operation`)."""
 
     name: str
     sensors: tuple[Sensor, ...]
     hours: float | None = None
     trajectories: int | None = None
     held_out_trajectories: int | None = None
+    operation: str = "excitation"
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -122,7 +124,7 @@ def _noise(sensor: Sensor, set_name: str, default: Mapping[str, float] | None) -
 
 
 def sensor_sets_from_config(sets: Mapping[str, Mapping]) -> dict[str, SensorSet]:
-    """``discovery.sensor_sets`` of the config: name -> {hours, trajectories, held_out_trajectories,
+    """``discovery.sensor_sets`` of the config: name -> {operation, hours, trajectories, held_out_trajectories,
     channels: {channel: {every_s, noise}}}."""
     return {
         name: SensorSet(
@@ -131,6 +133,7 @@ def sensor_sets_from_config(sets: Mapping[str, Mapping]) -> dict[str, SensorSet]
             spec.get("hours"),
             spec.get("trajectories"),
             spec.get("held_out_trajectories"),
+            spec.get("operation", "excitation"),
         )
         for name, spec in sets.items()
     }

@@ -11,19 +11,22 @@ advance together as one array; each draws its randomness from its own stream
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 
 from . import seeds
 from .integrate import rk4_step
 from .physics import CellModel
+from .pot_line import DAY_S, PotLine, PotLineOperation
 
 __all__ = [
     "Controller",
     "HeldSignal",
     "ImpulseTrain",
     "InitialRanges",
+    "Operator",
     "SimulationSettings",
     "Trajectories",
     "draw_excitation",
@@ -106,6 +109,9 @@ class SimulationSettings:
     anode_cathode_distance: HeldSignal
     alumina_impulses: ImpulseTrain
     alf3_impulses: ImpulseTrain
+    pot_line: PotLine | None = None
+    #: how the inputs arise: "excitation" (the paper's controllers and random excitation) or "pot_line"
+    operation: str = "excitation"
 
     @classmethod
     def from_config(cls, sim: Mapping) -> SimulationSettings:
@@ -122,6 +128,7 @@ class SimulationSettings:
             anode_cathode_distance=_held(exc["anode_cathode_distance"]),
             alumina_impulses=_impulses(exc["alumina_impulses"]),
             alf3_impulses=_impulses(exc["alf3_impulses"]),
+            pot_line=PotLine.from_config(sim["pot_line"]) if "pot_line" in sim else None,
         )
 
 
@@ -192,6 +199,23 @@ def draw_excitation(rng: np.random.Generator, settings: SimulationSettings) -> d
 
 
 # ------------------------------------------------------------- stepping
+class Operator(Protocol):
+    """What sets a cell's inputs: u_k (n, 5) from the states x_k (n, 8) at step k."""
+
+    def inputs(self, x: np.ndarray, k: int) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class Excited:
+    """The paper's operation: P-controllers on the feeds and the tapping, plus the random excitation."""
+
+    excitation: Mapping[str, np.ndarray]
+    settings: SimulationSettings
+
+    def inputs(self, x: np.ndarray, k: int) -> np.ndarray:
+        return _inputs(x, self.excitation, k, self.settings)
+
+
 def _inputs(x: np.ndarray, excitation: Mapping[str, np.ndarray], k: int, s: SimulationSettings) -> np.ndarray:
     """u_k (n, 5) from the states x_k (n, 8) and step k of the excitation."""
     bath = x[:, 1] + x[:, 2] + x[:, 3]
@@ -207,22 +231,17 @@ def _inputs(x: np.ndarray, excitation: Mapping[str, np.ndarray], k: int, s: Simu
     )
 
 
-def simulate(
-    model: CellModel,
-    x0: np.ndarray,
-    excitation: Mapping[str, np.ndarray],
-    settings: SimulationSettings,
-) -> Trajectories:
-    """Simulate n trajectories together from x0 (n, 8) with excitations (n, steps)."""
+def simulate(model: CellModel, x0: np.ndarray, operator: Operator, settings: SimulationSettings) -> Trajectories:
+    """Simulate n trajectories together from x0 (n, 8), their inputs set by ``operator``."""
     n, steps = x0.shape[0], settings.steps
     x = np.empty((n, steps, 8))
     u = np.empty((n, steps, 5))
     x[:, 0] = x0
-    u[:, 0] = _inputs(x0, excitation, 0, settings)
     with np.errstate(all="ignore"):
+        u[:, 0] = operator.inputs(x0, 0)
         for k in range(1, steps):
             x[:, k] = rk4_step(model.rhs, x[:, k - 1], u[:, k - 1], settings.dt)
-            u[:, k] = _inputs(x[:, k], excitation, k, settings)
+            u[:, k] = operator.inputs(x[:, k], k)
     return Trajectories(x, u)
 
 
@@ -241,10 +260,15 @@ def simulate_set(
     excitation from (``stream_name``, i, attempt).  A trajectory whose simulation
     leaves the finite numbers is simulated again from the same initial state with
     the next attempt's excitation, as the authors' code does; the number of
-    attempts is returned so that it can be recorded.
+    attempts is returned so that it can be recorded.  Under ``settings.operation``
+    "pot_line" the excitation is the pot line's (:mod:`costa.pot_line`): each cell's
+    phase and current noise from (``stream_name``/pot_line, i, attempt).
     """
+    initial = settings.initial
+    if settings.operation == "pot_line" and settings.pot_line is not None:
+        initial = replace(initial, c2_percent=settings.pot_line.c2_percent)
     x0 = np.stack(
-        [draw_initial_state(seeds.numpy_generator(seed, replicate, stream_name, i), settings.initial)
+        [draw_initial_state(seeds.numpy_generator(seed, replicate, stream_name, i), initial)
          for i in range(n_trajectories)]
     )  # fmt: skip
     attempts = np.zeros(n_trajectories, dtype=np.int64)
@@ -256,13 +280,29 @@ def simulate_set(
             raise RuntimeError(
                 f"{stream_name}: trajectories {todo.tolist()} left the finite numbers in {max_attempts} attempts"
             )
-        excitation = _stacked_excitation(settings, seed, replicate, stream_name, todo, attempts[todo])
-        result = simulate(model, x0[todo], excitation, settings)
+        operator = _operator(model, settings, seed, replicate, stream_name, todo, attempts[todo])
+        result = simulate(model, x0[todo], operator, settings)
         x[todo], u[todo] = result.x, result.u
         finite = np.isfinite(result.x).all(axis=(1, 2)) & np.isfinite(result.u).all(axis=(1, 2))
         attempts[todo] += 1
         todo = todo[~finite]
     return Trajectories(x, u), attempts
+
+
+def _operator(model, settings, seed, replicate, stream_name, indices, attempts) -> Operator:
+    if settings.operation == "excitation":
+        return Excited(_stacked_excitation(settings, seed, replicate, stream_name, indices, attempts), settings)
+    if settings.operation != "pot_line" or settings.pot_line is None:
+        raise ValueError(
+            f"unknown operation {settings.operation!r} (or simulation.pot_line missing); known: excitation, pot_line"
+        )
+    rngs = [
+        seeds.numpy_generator(seed, replicate, f"{stream_name}/pot_line", i, a)
+        for i, a in zip(indices, attempts, strict=True)
+    ]
+    phase = np.array([rng.uniform(0, DAY_S) for rng in rngs])
+    noise = np.stack([rng.standard_normal(settings.steps) for rng in rngs])
+    return PotLineOperation(settings.pot_line, model, settings.dt, noise, phase)
 
 
 def _stacked_excitation(settings, seed, replicate, stream_name, indices, attempts) -> dict[str, np.ndarray]:

@@ -24,14 +24,15 @@ def case_tables(
     """Training and held-out tables of a case (a shipped or unshipped one by name), simulated with its true model
     and measured by the sensor set ``sensors`` of ``discovery.sensor_sets``.
 
-    A sensor that leaves its noise open gets the case's level: that fraction of its channel's
+    The cells are run as the sensor set's ``operation`` says (the paper's excitation, or a pot line's
+    controllers).  A sensor that leaves its noise open gets the case's level: that fraction of its channel's
     std over the data set (the full set is then every state with the case's noise).
     """
     case = find_case(case) if isinstance(case, str) else case
     discovery = config["discovery"]
     sensor_set = sensor_sets_from_config(discovery["sensor_sets"])[sensors]
     settings = SimulationSettings.from_config(config["simulation"])
-    settings = replace(settings, steps=sensor_set.steps(settings.dt, settings.steps))
+    settings = replace(settings, steps=sensor_set.steps(settings.dt, settings.steps), operation=sensor_set.operation)
     true, _ = case.models(model_from_config(config["physics"])[0])
     tables = []
     counts = (

@@ -1,0 +1,72 @@
+"""A pot line's operation (costa.pot_line) against what a smelter's controllers must do: hold the current,
+feed the alumina the cell consumes, tap the metal it makes once a day, dose AlF3 once a shift."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from costa.observe import observe
+from costa.pot_line import DAY_S, SHIFT_S
+from costa.simulate import SimulationSettings, simulate_set
+
+DAYS = 2
+
+
+@pytest.fixture(scope="module")
+def line_run(default_config, model):
+    settings = SimulationSettings.from_config(default_config["simulation"])
+    settings = dataclasses.replace(settings, steps=int(DAYS * DAY_S / settings.dt), operation="pot_line")
+    trajectories, attempts = simulate_set(model, settings, 3, seed=4, replicate=0, stream_name="pot_line")
+    return settings, trajectories
+
+
+def test_the_line_current_is_held_with_its_ripple(line_run):
+    settings, run = line_run
+    current = run.u[..., 1]
+    line = settings.pot_line
+    assert abs(current.mean() / line.current_a - 1) < 1e-4
+    assert current.std() / line.current_a == pytest.approx(line.current_noise, rel=0.02)
+
+
+def test_the_feeders_deliver_what_the_cell_consumes_in_doses(line_run, model):
+    settings, run = line_run
+    dose_rate = settings.pot_line.dose_kg / settings.dt
+    u1 = run.u[..., 0]
+    assert set(np.unique(u1)) <= {0.0, dose_rate}  # point-feeder doses, nothing in between
+    applied = run.u[:, :-1]  # u_k acts over step k; the last sample's inputs act on nothing recorded
+    fed = applied[..., 0].sum(axis=1) * settings.dt
+    consumed = model.params.k3 * applied[..., 1].sum(axis=1) * settings.dt
+    alumina_change = run.x[:, -1, 1] - run.x[:, 0, 1]
+    np.testing.assert_allclose(fed - consumed, alumina_change, rtol=0, atol=1e-3)  # the Al2O3 balance, to a gram
+    # tracked on the voltage: the bath neither starves (the voltage's swings below 2.3 %) nor silts up
+    fraction = run.x[..., 1] / run.x[..., 1:4].sum(axis=-1)
+    assert fraction.min() > 0.023 and fraction.max() < 0.06
+    assert abs(fed.sum() / consumed.sum() - 1) < 0.1
+
+
+def test_one_tap_a_day_takes_the_metal_made_and_alf3_comes_once_a_shift(line_run, model):
+    settings, run = line_run
+    line = settings.pot_line
+    tapping = run.u[..., 3] > 0
+    starts = (tapping[:, 1:] & ~tapping[:, :-1]).sum(axis=1) + tapping[:, 0]
+    assert set(starts) <= {DAYS, DAYS + 1}  # the first day's tap falls at a random hour
+    assert tapping.sum(axis=1).max() <= (DAYS + 1) * line.tap_s / settings.dt
+    assert run.u[..., 3].max() < 9.0  # a tap over 10 minutes, within the simulations' range
+    applied = run.u[:, :-1]
+    made = model.params.k6 * applied[..., 1].sum(axis=1) * settings.dt
+    tapped = applied[..., 3].sum(axis=1) * settings.dt
+    np.testing.assert_allclose(run.x[:, -1, 4] - run.x[:, 0, 4], made - tapped, rtol=0, atol=1e-3)  # the metal balance
+    assert np.all(np.abs(run.x[:, -1, 4] - line.metal_setpoint_kg) < 1.2 * made / DAYS)
+    doses = (run.u[..., 2] > 0).sum(axis=1)
+    assert set(doses) <= {DAYS * DAY_S / SHIFT_S, DAYS * DAY_S / SHIFT_S + 1}
+
+
+def test_the_beam_holds_the_voltage_near_its_target(line_run, model):
+    settings, run = line_run
+    voltage = observe(model, run.x, run.u, ("U_cell",))[..., 0]
+    last_day = voltage[:, -int(DAY_S / settings.dt) :]
+    assert np.abs(np.median(last_day, axis=1) - settings.pot_line.voltage_target_v).max() < 0.05
+    assert np.abs(np.diff(run.u[..., 4], axis=1)).max() <= settings.pot_line.beam_step_m + 1e-12
