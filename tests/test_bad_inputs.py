@@ -116,6 +116,8 @@ def _pot_voltage_in_millivolts(t):
 # (name, file name, how the good table is spoilt (or the file's text), what the one line must say)
 DATA = [
     ("missing input column", "cell.csv", _drop_u3, "cell.csv: missing column(s) ['u3']"),
+    ("unlogged input not declared", "cell.csv", lambda t: t.drop(columns="u5"),
+     "cell.csv: missing column(s) ['u5'];"),
     ("NaN in an input", "cell.csv", _set("u2", 17, np.nan), "cell.csv: column 'u2' has no value at row 17 (the inputs u1..u5 are logged commands, needed at every step)"),
     ("inf in an input", "cell.csv", _set("u1", 250, np.inf), "cell.csv: column 'u1' has a non-finite value at row 250: inf"),
     ("NaN time", "cell.csv", _set("time_s", 9, np.nan), "cell.csv: column 'time_s' has no value at row 9 (a key)"),

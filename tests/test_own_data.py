@@ -150,6 +150,7 @@ def test_a_record_with_constant_line_current_and_no_tap_names_what_it_can(exampl
     )
     simulation = copy.deepcopy(config["simulation"])
     simulation["excitation"]["line_current"]["offset"] = [0.0, 0.0]
+    simulation["excitation"]["anode_cathode_distance"]["offset"] = [0.0, 0.0]
     simulation["controllers"]["metal_tapping"].update(min_rate=0.0, max_rate=0.0)
     settings = SimulationSettings.from_config(simulation)
     true, _ = CASES["top_heat_loss"].models(model_from_config(config["physics"])[0])
@@ -157,18 +158,22 @@ def test_a_record_with_constant_line_current_and_no_tap_names_what_it_can(exampl
     assert np.ptp(simulated.u[..., 1]) == 0 and np.ptp(simulated.u[..., 3]) == 0
     noisy = add_noise(simulated.x, 0.01, seeds.numpy_generator(config["seed"], 0, "constant-inputs/noise"))
     path = tmp_path / "cell.csv"
-    to_table(noisy, simulated.u, settings.dt).drop(columns=["step"]).to_csv(path, index=False, float_format="%.6g")
-    train, held_out = split_held_out(path, 1 / 3)
+    table = to_table(noisy, simulated.u, settings.dt).drop(columns=["step", "u5"])  # the line logs no u5
+    table.to_csv(path, index=False, float_format="%.6g")
+    with pytest.raises(TrajectoryDataError, match=r"missing column\(s\) \['u5'\].*unlogged_inputs with the value"):
+        split_held_out(path, 1 / 3)
+    train, held_out = split_held_out(path, 1 / 3, {"u5": 0.05})
+    assert (train["u5"] == 0.05).all()
     start = starting_model(example_config, "full")
-    found = findings(
-        run_discovery(example_config, train, held_out, start, "cell", str(path)), "cell", start, {"data": "x"}
-    )
+    meta = {"data": "x", "unlogged_inputs": {"u5": 0.05}}
+    found = findings(run_discovery(example_config, train, held_out, start, "cell", str(path)), "cell", start, meta)
     assert found["named"][0] == "term:bath_energy"
-    assert [i["input"] for i in found["inputs_that_did_not_vary"]] == ["u2", "u4"]
+    assert [i["input"] for i in found["inputs_that_did_not_vary"]] == ["u2", "u4", "u5"]
     assert "line current did not vary" in found["inputs_that_did_not_vary"][0]["consequence"]
+    assert "not logged: held at the declared 0.05 m" in found["inputs_that_did_not_vary"][2]["consequence"]
     assert "**Inputs that did not vary**" in findings_markdown(found)
     named_terms = [c["term"] for c in found["rounds"][0]["named"]["coefficients"]]
-    assert not any("u2" in t or "u4" in t for t in named_terms)
+    assert not any(u in t for t in named_terms for u in ("u2", "u4", "u5"))
 
 
 def test_the_example_data_are_what_the_documented_script_makes(tmp_path):

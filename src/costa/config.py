@@ -131,12 +131,12 @@ def check_user_data(config: Mapping[str, Any]) -> None:
     from .events import load_trajectories_with_events
 
     try:
-        split_held_out(user["path"], user["held_out_fraction"])
+        split_held_out(user["path"], user["held_out_fraction"], user["unlogged_inputs"])
     except TrajectoryDataError as error:
         raise TrajectoryDataError(f"invalid data at 'discovery.user_data.path': {error}") from None
     if user.get("events"):
         try:
-            load_trajectories_with_events(user["path"], user["events"])
+            load_trajectories_with_events(user["path"], user["events"], user["unlogged_inputs"])
         except TrajectoryDataError as error:
             raise TrajectoryDataError(f"invalid data at 'discovery.user_data.events': {error}") from None
 

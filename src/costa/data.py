@@ -86,8 +86,11 @@ def write_trajectories(table: pd.DataFrame, path: str | Path, provenance: Mappin
     pq.write_table(pa.Table.from_pandas(table, schema=schema, preserve_index=False), path)
 
 
-def load_trajectories(path: str | Path) -> pd.DataFrame:
+def load_trajectories(path: str | Path, unlogged: Mapping[str, float] | None = None) -> pd.DataFrame:
     """Read and check a trajectory table from Parquet or CSV (the contract in the module docstring).
+
+    ``unlogged``: inputs the record does not log, each held at a stated value (its column absent
+    or empty is filled with it; a column partly logged keeps its values and gets it where empty).
 
     Checks, in order: the file exists and parses; ``trajectory``, ``time_s`` and
     ``u1..u5`` are there; the known columns are numeric; keys and inputs have a
@@ -99,6 +102,8 @@ def load_trajectories(path: str | Path) -> pd.DataFrame:
     """
     path = Path(path)
     table = _read(path)
+    for name, value in (unlogged or {}).items():
+        table[name] = table[name].fillna(value) if name in table.columns else float(value)
     _check_required_columns(path, table)
     known = [c for c in (*KEY_COLUMNS, *INPUTS, *CHANNELS, *AUXILIARY) if c in table.columns]
     _check_numeric(path, table, known)
@@ -257,8 +262,22 @@ def _check_required_columns(path: Path, table: pd.DataFrame) -> None:
     if missing:
         raise TrajectoryDataError(
             f"{path}: missing column(s) {missing}; a trajectory table needs {list(REQUIRED_COLUMNS)} "
-            f"and at least one of the measured channels {list(CHANNELS)}"
+            f"and at least one of the measured channels {list(CHANNELS)}{_unlogged_hint(missing)}"
         )
+
+
+#: a cell's typical inputs at 140 kA (the nominal feed, AlF3 and tapping rates equal consumption and production)
+TYPICAL_INPUTS = {"u1": 0.024, "u2": 140000.0, "u3": 0.0005, "u4": 0.0062, "u5": 0.05}
+
+
+def _unlogged_hint(columns: Sequence[str]) -> str:
+    inputs = [c for c in columns if c in INPUTS]
+    if not inputs:
+        return ""
+    return (
+        f"; an input your line does not log can be declared in discovery.user_data.unlogged_inputs with the "
+        f"value it is held at (e.g. {{{inputs[0]}: {TYPICAL_INPUTS[inputs[0]]}}}, in {UNIT[inputs[0]]})"
+    )
 
 
 def _check_numeric(path: Path, table: pd.DataFrame, columns: Sequence[str]) -> None:
@@ -277,7 +296,9 @@ def _check_every_row(path: Path, table: pd.DataFrame, columns: Sequence[str]) ->
         if np.isnan(values).any():
             row = _first_row(np.isnan(values))
             what = "the inputs u1..u5 are logged commands, needed at every step" if column in INPUTS else "a key"
-            raise TrajectoryDataError(f"{path}: column {column!r} has no value at row {row} ({what})")
+            raise TrajectoryDataError(
+                f"{path}: column {column!r} has no value at row {row} ({what}){_unlogged_hint([column])}"
+            )
         if not np.isfinite(values).all():
             row = _first_row(~np.isfinite(values))
             raise TrajectoryDataError(f"{path}: column {column!r} has a non-finite value at row {row}: {values[row]}")

@@ -22,6 +22,7 @@ counted from 0 after a CSV header).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -59,9 +60,12 @@ EVENT_KINDS: dict[str, EventKind] = {
 }
 
 
-def load_trajectories_with_events(record: str | Path, events: str | Path) -> pd.DataFrame:
-    """A trajectory table (:func:`costa.data.load_trajectories`) with its events' rates [kg/s] added to u1, u3, u4."""
-    table = load_trajectories(record)
+def load_trajectories_with_events(
+    record: str | Path, events: str | Path, unlogged: Mapping[str, float] | None = None
+) -> pd.DataFrame:
+    """A trajectory table (:func:`costa.data.load_trajectories`, ``unlogged`` inputs held at their stated
+    values) with its events' rates [kg/s] added to u1, u3, u4."""
+    table = load_trajectories(record, unlogged)
     found = read_events(events)
     _check_against_record(Path(events), found, table, Path(record))
     table = table.copy()

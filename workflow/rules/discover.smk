@@ -35,6 +35,8 @@ rule discovery_user_events:
     conda:
         ENV
     threads: 1
+    params:
+        unlogged=lambda wildcards: config["discovery"]["user_data"]["unlogged_inputs"],
     script:
         "../scripts/discovery_user_events.py"
 
@@ -55,6 +57,7 @@ rule discovery_user_data:
     threads: 1
     params:
         fraction=lambda wildcards: config["discovery"]["user_data"]["held_out_fraction"],
+        unlogged=lambda wildcards: config["discovery"]["user_data"]["unlogged_inputs"],
     script:
         "../scripts/discovery_user_data.py"
 

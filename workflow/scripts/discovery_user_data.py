@@ -5,7 +5,7 @@ from costa.data import channel_report, format_channel_report, write_trajectories
 from costa.discover.pipeline import split_held_out
 
 log = runtime.configure(snakemake)
-train, held_out = split_held_out(snakemake.input.measurements, snakemake.params.fraction)
+train, held_out = split_held_out(snakemake.input.measurements, snakemake.params.fraction, snakemake.params.unlogged)
 log.info(
     "%s: %d trajectories to learn from, %d held out; measured channels:\n%s",
     snakemake.input.measurements,

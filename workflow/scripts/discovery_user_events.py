@@ -5,7 +5,7 @@ from costa.data import write_trajectories
 from costa.events import load_trajectories_with_events, read_events
 
 log = runtime.configure(snakemake)
-table = load_trajectories_with_events(snakemake.input.record, snakemake.input.events)
+table = load_trajectories_with_events(snakemake.input.record, snakemake.input.events, snakemake.params.unlogged)
 events = read_events(snakemake.input.events)
 log.info(
     "%s: %s added to the inputs of %s",

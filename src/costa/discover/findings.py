@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..variables import MEANING, STATES
+from ..variables import MEANING, STATES, UNIT
 from .core.fitted_terms import KEEP_LEVEL
 from .core.naming import removal
 from .full_state.pipeline import DiscoveryResult
@@ -187,6 +187,15 @@ def _undecidable(u: str) -> str:
     )
 
 
+def _unlogged(u: str, value: float) -> str:
+    """What a record whose input ``u`` was not logged (held at ``value`` by the user's word) cannot decide."""
+    return (
+        f"not logged: held at the declared {value:g} {UNIT[u]}, so terms in {u} left the closed forms and an effect "
+        f"that depends on {u} is not identifiable from this record; where the {MEANING[u]} in fact moved, its "
+        f"effect on the cell shows as a disagreement the model cannot place; logging {u} would tell"
+    )
+
+
 def findings(
     result: DiscoveryResult | PartialResult,
     name: str,
@@ -220,8 +229,14 @@ def findings(
         extra["channels"] = channels.astype(object).where(channels.notna(), None).to_dict(orient="records")
     if constants is not None:
         extra["constants"] = constants.to_dict(orient="records")
+    unlogged = meta.get("unlogged_inputs") or {}
     extra["inputs_that_did_not_vary"] = [
-        {"input": u, "meaning": MEANING[u], "consequence": _undecidable(u)} for u in result.constant_inputs
+        {
+            "input": u,
+            "meaning": MEANING[u],
+            "consequence": _unlogged(u, unlogged[u]) if u in unlogged else _undecidable(u),
+        }
+        for u in result.constant_inputs
     ]
     if partial:
         measured = {"measurements": "partial", "flagged_channels": first["flagged"]}

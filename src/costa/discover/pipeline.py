@@ -42,9 +42,12 @@ def starting_model(config: Mapping, name: str) -> CellModel:
     return models[name]
 
 
-def split_held_out(path: str | Path, fraction: float) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """A user's table split by trajectory: the last ``fraction`` of them are held out."""
-    table = load_trajectories(path)
+def split_held_out(
+    path: str | Path, fraction: float, unlogged: Mapping[str, float] | None = None
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """A user's table split by trajectory: the last ``fraction`` of them are held out; ``unlogged``: inputs
+    the record lacks, held at their stated values (:func:`costa.data.load_trajectories`)."""
+    table = load_trajectories(path, unlogged)
     ids = np.sort(table["trajectory"].unique())
     if len(ids) < 2:
         raise TrajectoryDataError(

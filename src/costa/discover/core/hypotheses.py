@@ -200,12 +200,16 @@ def _plus(own, correction, v, q):
 PREFERENCE = {"input": 0, "term": 1, "transfer": 2, "part": 3, "property": 4}
 
 
-def candidate_hypotheses(model: CellModel) -> list[Hypothesis]:
+def candidate_hypotheses(model: CellModel, constant: Sequence[str] = ()) -> list[Hypothesis]:
     """Every part, every balance, every pair of balances of the same unit, every physical
-    property, every input."""
+    property, every input but the ``constant`` ones: an input that did not vary in the record (or
+    was not logged) cannot show a delivered share that differs from its log, and its correction,
+    a gain read from the states, is then a source in the balances it enters that the term
+    hypotheses already hold (with the line current and the anode distance constant, an
+    anode-distance gain was named for a top heat loss)."""
     hypotheses = [Hypothesis(f"part:{name}", "part", name, model.parts[name].unit) for name in PART_ORDER]
     hypotheses += [Hypothesis(f"property:{name}", "property", name, "-") for name in PROPERTIES]
-    hypotheses += [Hypothesis(f"input:{name}", "input", name, "-") for name in INPUTS]
+    hypotheses += [Hypothesis(f"input:{name}", "input", name, "-") for name in INPUTS if name not in constant]
     for balance, (_, unit) in BALANCES.items():
         hypotheses.append(Hypothesis(f"term:{balance}", "term", balance, unit, {balance: 1.0}))
     names = list(BALANCES)

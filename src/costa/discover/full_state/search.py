@@ -37,7 +37,7 @@ from ...physics import CellModel, CellVariables
 from ...variables import STATES
 from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
 from ..core.hypotheses import Hypothesis, candidate_hypotheses
-from ..core.library import Feature
+from ..core.library import Feature, constant_inputs
 from ..core.naming import naming_order, removal
 from ..core.noise import estimate_noise
 from ..core.regression import (
@@ -334,7 +334,7 @@ def discover_round(
     flagged = [i for i, t in enumerate(tests) if t.flagged]
     if not flagged:
         return Round(model, tests, {}, [], None, [], "no equation disagrees with the data beyond noise", rich, window)
-    hypotheses = candidate_hypotheses(model)
+    hypotheses = candidate_hypotheses(model, constant_inputs(problem.left_u))
     screened = sorted(((problem.screen(h, model, z0, flagged), h) for h in hypotheses), key=lambda item: -item[0])
     # hypotheses with the same sensitivity tie exactly: keep ties together
     cut = screened[min(settings.screen_keep, len(screened)) - 1][0] - 1e-3

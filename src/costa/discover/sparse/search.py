@@ -46,7 +46,7 @@ import numpy as np
 from ...physics import CellModel
 from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
 from ..core.hypotheses import Hypothesis, candidate_hypotheses
-from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
+from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
 from ..core.naming import naming_order, removal
 from ..core.regression import (
     GramSystem,
@@ -504,7 +504,9 @@ def screen_round(
     screen = slice(0, max(1, settings.screen_steps // obs.y.shape[1]))
     few, few_states = obs.subset(screen), base.mean[screen]
     started = time.perf_counter()
-    screened, _ = score_hypotheses(model, candidate_hypotheses(model), few, settings.window, few_states, settings.walks)
+    screened, _ = score_hypotheses(
+        model, candidate_hypotheses(model, constant_inputs(obs.u)), few, settings.window, few_states, settings.walks
+    )
     log.info(
         "screened %d hypotheses on %d trajectories in %.1f s", len(screened), len(few.y), time.perf_counter() - started
     )
