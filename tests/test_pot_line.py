@@ -70,3 +70,25 @@ def test_the_beam_holds_the_voltage_near_its_target(line_run, model):
     last_day = voltage[:, -int(DAY_S / settings.dt) :]
     assert np.abs(np.median(last_day, axis=1) - settings.pot_line.voltage_target_v).max() < 0.05
     assert np.abs(np.diff(run.u[..., 4], axis=1)).max() <= settings.pot_line.beam_step_m + 1e-12
+
+
+@pytest.mark.integration  # a minute: a 3-day record of two cells, filtered
+def test_a_correct_model_passes_every_channel_test_on_a_pot_lines_daily_samples(default_config, model):
+    """No false alarm: the pot voltage every 10 s and daily bath temperature, AlF3 and metal samples of
+    cells run by the pot line's controllers, filtered with the model that made them."""
+    from costa.discover.pipeline import settings_from_config
+    from costa.discover.sparse.pipeline import checked_observations
+    from costa.discover.sparse.search import _tests
+    from costa.sensors import measure, sensor_sets_from_config
+
+    sensors = sensor_sets_from_config(default_config["discovery"]["sensor_sets"])["pot_line"]
+    settings = SimulationSettings.from_config(default_config["simulation"])
+    settings = dataclasses.replace(settings, steps=int(3 * DAY_S / settings.dt), operation="pot_line")
+    run, _ = simulate_set(model, settings, 2, seed=1, replicate=0, stream_name="pot_line/null")
+    table = measure(model, run.x, run.u, settings.dt, sensors, np.random.default_rng(1))
+    declared = {s.channel: s.noise for s in sensors.sensors}
+    discovery = settings_from_config(default_config)
+    obs = checked_observations(table, declared, "pot line", discovery).with_start(model)
+    tests, _ = _tests(model, obs, discovery)
+    assert {t.channel for t in tests} == {"U_pot", "x6", "c3", "x5"}
+    assert not [t for t in tests if t.flagged], tests
