@@ -148,6 +148,8 @@ DATA = [
 EVENTS = [
     ("event after the record", "trajectory,time_s,kind,amount_kg,duration_s\n0,3990,tap,1000,600\n",
      "events.csv: column 'time_s' at row 0: the tap from 3990 s to 4590 s lies outside trajectory 0 of"),
+    ("events out of time order", "trajectory,time_s,kind,amount_kg\n0,600,alumina_dose,1.8\n0,300,alumina_dose,1.8\n",
+     "events.csv: column 'time_s' must not decrease within a trajectory; row 1 goes back from 600 to 300"),
     ("unknown event kind", "trajectory,time_s,kind,amount_kg\n0,60,alumina_dose,1.8\n1,60,anode_change,900\n",
      "events.csv: column 'kind' has the unknown kind 'anode_change' at row 1; known: tap, alf3_addition, alumina_dose"),
 ]  # fmt: skip

@@ -47,6 +47,8 @@ def test_a_channel_already_measured_as_often_is_not_recommended(two_explanations
     assert sampled_every(obs) == {"U_cell": 10.0, "x5": 28800.0}
     assert all(r.channel != "x5" for r in measure_next(explanations, obs, top=10))
     assert measure_next(explanations[:1], obs) == []
+    pot = _obs(u, ("U_pot",), (1,))  # the pot voltage is the cell voltage plus constants
+    assert all(r.channel != "U_cell" for r in measure_next(explanations, pot, top=10))
 
 
 def test_one_cell_whose_filter_ran_away_does_not_decide():

@@ -9,7 +9,8 @@ is scored by the expected separation of the first explanation from the nearest o
 per cell sqrt(sum over its samples of (difference / noise std)^2), combined over the n cells
 as sqrt(n x the median cell's square), in noise stds (a cell whose filter ran away under one
 explanation would otherwise decide alone); the list is ranked by it.  A channel already
-measured as often is left out.
+measured as often is left out (a logged pot voltage counts as the cell voltage: it is U plus
+known constants).
 """
 
 from __future__ import annotations
@@ -81,6 +82,8 @@ def measure_next(
     if len(explanations) < 2:
         return []
     measured = sampled_every(obs)
+    if "U_pot" in measured:  # the pot voltage is the cell voltage plus known constants: the same record
+        measured["U_cell"] = min(measured["U_pot"], measured.get("U_cell", np.inf))
     channels = sorted({s.channel for s in available}, key=[s.channel for s in available].index)
     with np.errstate(all="ignore"):
         values = [observe(model, x, obs.u, channels) for model, x in explanations]
