@@ -204,7 +204,10 @@ def discovery_meta(wildcards):
     if wildcards.case == USER_CASE:
         user = config["discovery"]["user_data"]
         events = f" with the events in {user['events']}" if user.get("events") else ""
-        return {"data": f"measurements from {user['path']}{events}", "unlogged_inputs": user["unlogged_inputs"]}
+        return {
+            "data": f"measurements from {user['path']}{events}",
+            "unlogged_inputs": user["unlogged_inputs"],
+        }
     from costa.discover.cases.unshipped import find_case
 
     case = find_case(wildcards.case)
