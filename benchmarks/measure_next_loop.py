@@ -32,12 +32,15 @@ def findings(case: str, sensors: str) -> dict:
     return json.loads((RESULTS / "discovery" / case / "sensors" / sensors / "findings.json").read_text())
 
 
-def top_recommendation(found: dict) -> dict | None:
-    """The first round's top recommendation, where it ended without a name."""
+def top_recommendation(found: dict, measured: set[str]) -> dict | None:
+    """The first round's top recommendation of a channel the set does not measure, where it ended
+    without a name (the pot voltage counts as the cell voltage, as findings made since
+    2026-11-26 rank them)."""
     first = found["rounds"][0]
-    if found["named"] or not first.get("measure_next"):
+    if found["named"]:
         return None
-    return first["measure_next"][0]
+    measured = measured | ({"U_cell"} if "U_pot" in measured else set())
+    return next((m for m in first.get("measure_next", []) if m["channel"] not in measured), None)
 
 
 def main() -> None:
@@ -52,7 +55,7 @@ def main() -> None:
     extended, rows = f"{args.sensors}_next", []
     added = {}
     for case in cases:
-        recommendation = top_recommendation(findings(case, args.sensors))
+        recommendation = top_recommendation(findings(case, args.sensors), set(base["channels"]))
         if recommendation is not None:
             added[case] = recommendation
     if not added:
