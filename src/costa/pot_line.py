@@ -10,10 +10,11 @@ holds its current and acts on a few measurements (``simulation.pot_line`` in the
   (``overfeed`` x nominal) for ``overfeed_s``; the nominal rate is the consumption at the set current;
 - **anode beam** (u5): while overfeeding, at most every ``beam_every_s``, one step of ``beam_step_m`` down
   or up where the voltage lies more than ``voltage_band_v`` from ``voltage_target_v``;
-- **AlF3** (u3): a dose once a shift, ``alf3_base_kg`` plus ``alf3_gain_kg`` per unit of AlF3 fraction
-  that the last daily bath sample lies below ``alf3_setpoint`` (0 .. ``alf3_max_kg``), in one step;
-- **tapping** (u4): one tap a day, the metal above ``metal_setpoint_kg`` (as the day's metal-height dip
-  reads it) siphoned over ``tap_s``.
+- **AlF3** (u3): a dose halfway through each shift, ``alf3_base_kg`` plus ``alf3_gain_kg`` per unit of
+  AlF3 fraction that the last daily bath sample lies below ``alf3_setpoint`` (0 .. ``alf3_max_kg``), in one
+  step;
+- **tapping** (u4): one tap a day, half a day after the bath sample: the metal above
+  ``metal_setpoint_kg`` at its start, siphoned over ``tap_s``.
 
 Doses and taps are amounts: one step carries amount / dt [kg/s], as the events table turns them into
 rates (:mod:`costa.events`).  Each cell's shift, sample and tap times start at a random phase, and
