@@ -3,7 +3,8 @@
 One sample per step of ``dt`` seconds: sample k stores (x_k, u_k) where u_k is held
 over [k, k+1).  Each step x_{k+1} = RK4(x_k, u_k, dt), then u_{k+1} is computed
 from x_{k+1}: P-controllers with a dead zone and a cap on the feeds and the
-tapping, plus a random excitation (docs/model.md §4).  All trajectories of a set
+tapping, plus a random excitation (docs/model.md §4); or, where the settings'
+``operation`` is "pot_line", a pot line's controllers (:mod:`costa.pot_line`).  All trajectories of a set
 advance together as one array; each draws its randomness from its own stream
 (:mod:`costa.seeds`), so the data are bit-identical for the same config.
 """
