@@ -28,6 +28,7 @@ config/smoke.yaml``, results under results/smoke/), in the ``smoke_run`` fixture
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import shutil
 import subprocess
@@ -280,6 +281,24 @@ def check_candidate_benchmark(command, smoke_run, tmp_path):
     assert result.returncode == 0 and "equal to rounding" in result.stdout, result.stderr[-4000:]
 
 
+def check_measure_next_loop(command, smoke_run, tmp_path):
+    """Its whole run is the shipped cases under a sensor set (tens of minutes each): here its usage, and the
+    choice of the measurement it adds from a findings file."""
+    result = run_command(smoke_run, f"{command} --help")
+    assert result.returncode == 0 and "closed loop" in result.stdout, result.stderr[-2000:]
+    spec = importlib.util.spec_from_file_location("loop", REPOSITORY / "benchmarks" / "measure_next_loop.py")
+    loop = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(loop)
+    ranked = [
+        {"channel": "U_cell", "every_s": 10},
+        {"channel": "x6", "every_s": 86400},
+        {"channel": "x8", "every_s": 600},
+    ]
+    found = {"named": [], "rounds": [{"measure_next": ranked}]}
+    assert loop.top_recommendation(found, {"U_pot", "x6"})["channel"] == "x8"  # the pot voltage is the cell voltage
+    assert loop.top_recommendation({**found, "named": ["input:u1"]}, {"U_pot"}) is None
+
+
 def check_suite_is_collected(command, smoke_run, tmp_path):
     result = run_command(REPOSITORY, f"{command} --collect-only -q -p no:cacheprovider")
     assert result.returncode == 0 and re.search(r"\d+/\d+ tests collected", result.stdout), result.stdout[-2000:]
@@ -323,6 +342,7 @@ RUN_CHECKS = {
     "snakemake --report results/snakemake_report.html": check_report,
     "python benchmarks/train_speed.py": check_benchmark,
     "python benchmarks/candidate_scores.py": check_candidate_benchmark,
+    "python benchmarks/measure_next_loop.py": check_measure_next_loop,
     "pytest -m slow": check_suite_is_collected,
     "pytest -m integration": check_suite_is_collected,
     "snakemake --cores 2 --software-deployment-method conda": check_conda_dry_run,
