@@ -187,49 +187,12 @@ def result_hashes(workdir: Path, results: str = "results/smoke") -> dict[str, st
     return hashes
 
 
-def tree_hash() -> str:
-    """sha256 of what a smoke run depends on: the repository's files (as :func:`repository_copy` takes
-    them) and the installed packages with their versions."""
-    import hashlib
-    from importlib import metadata
-
-    digest = hashlib.sha256(sys.version.encode())
-    for dist in sorted(f"{d.metadata['Name']}=={d.version}" for d in metadata.distributions()):
-        digest.update(dist.encode())
-    listed = subprocess.run(
-        ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=REPOSITORY, capture_output=True
-    )  # fmt: skip
-    if listed.returncode != 0:
-        return ""  # not a git checkout: no reuse
-    for name in sorted(filter(None, listed.stdout.decode().split("\0"))):
-        if (REPOSITORY / name).is_file():
-            digest.update(name.encode() + b"\0" + (REPOSITORY / name).read_bytes())
-    return digest.hexdigest()[:16]
-
-
 @pytest.fixture(scope="session")
-def smoke_run(tmp_path_factory, pytestconfig) -> Path:
-    """A copy of the repository in which the README's smoke command has run (results under results/smoke/).
-
-    The finished run is kept in pytest's cache (.pytest_cache/d/smoke-run/<hash of the tree and the
-    packages>), so that the integration tier, a second pytest process on the same tree, starts from
-    the fast tier's run instead of repeating it; every session works on its own copy of it."""
-    workdir = tmp_path_factory.mktemp("smoke")
-    key = tree_hash()
-    cache = getattr(pytestconfig, "cache", None)
-    kept = cache.mkdir("smoke-run") / key if cache is not None and key else None
-    if kept is not None and (kept / "seconds").exists():
-        shutil.copytree(kept / "repository", workdir, symlinks=True, dirs_exist_ok=True)
-        TIMINGS["local smoke run"] = float((kept / "seconds").read_text())
-        return workdir
-    repository_copy(workdir)
+def smoke_run(tmp_path_factory) -> Path:
+    """A copy of the repository in which the README's smoke command has run (results under results/smoke/)."""
+    workdir = repository_copy(tmp_path_factory.mktemp("smoke"))
     started = time.perf_counter()
     result = run_command(workdir, SMOKE_COMMAND)
     TIMINGS["local smoke run"] = time.perf_counter() - started
     assert result.returncode == 0, f"{SMOKE_COMMAND} failed:\n{result.stdout[-3000:]}\n{result.stderr[-6000:]}"
-    if kept is not None:
-        for old in kept.parent.iterdir():  # one tree's run is kept, the newest
-            shutil.rmtree(old, ignore_errors=True)
-        shutil.copytree(workdir, kept / "repository", symlinks=True)
-        (kept / "seconds").write_text(f"{TIMINGS['local smoke run']:.1f}")
     return workdir
