@@ -53,19 +53,19 @@ def main() -> None:
     cases = args.cases or config["discovery"]["cases"]
     base = config["discovery"]["sensor_sets"][args.sensors]
     extended, rows = f"{args.sensors}_next", []
-    added = {}
-    for case in cases:
-        recommendation = top_recommendation(findings(case, args.sensors), set(base["channels"]))
-        if recommendation is not None:
-            added[case] = recommendation
+    recommended = {case: top_recommendation(findings(case, args.sensors), set(base["channels"])) for case in cases}
+    added = {case: r for case, r in recommended.items() if r is not None}
     if not added:
         print("no case ends without a name and with a recommendation")
         return
     # one added channel per case: each case gets its own set, named after the set and the case
-    sets = {}
-    for case, r in added.items():
-        channels = {**base["channels"], r["channel"]: {"every_s": r["every_s"], "noise": r["noise"]}}
-        sets[f"{extended}_{case}"] = {**base, "channels": channels}
+    sets = {
+        f"{extended}_{case}": {
+            **base,
+            "channels": {**base["channels"], r["channel"]: {"every_s": r["every_s"], "noise": r["noise"]}},
+        }
+        for case, r in added.items()
+    }
     overlay = {"discovery": {"cases": list(added), "sensors": [args.sensors], "sensor_sets": sets}}
     folder = RESULTS / "measure_next"
     folder.mkdir(parents=True, exist_ok=True)

@@ -19,7 +19,7 @@ DAYS = 2
 def line_run(default_config, model):
     settings = SimulationSettings.from_config(default_config["simulation"])
     settings = dataclasses.replace(settings, steps=int(DAYS * DAY_S / settings.dt), operation="pot_line")
-    trajectories, attempts = simulate_set(model, settings, 3, seed=4, replicate=0, stream_name="pot_line")
+    trajectories, _ = simulate_set(model, settings, 3, seed=4, replicate=0, stream_name="pot_line")
     return settings, trajectories
 
 
