@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from costa.discover.cases.shipped import add_noise
+from costa.discover.cases.unshipped import find_case
 from costa.discover.sparse.estimator import innovation_tests
 from costa.discover.sparse.observed import estimate_states
 from costa.observe import observe
 from costa.physics import ablated_model, true_model
-from costa.sensors import CHANNELS, Sensor, SensorSet, measure, sensor_sets_from_config
+from costa.sensors import AT_TAPS, CHANNELS, Sensor, SensorSet, measure, sensor_sets_from_config, tap_starts
 from costa.simulate import simulate_set
 from costa.variables import STATES
 
@@ -57,7 +58,7 @@ def test_config_sets_and_unknown_channels():
     assert sets["p"].channels == ("U_cell",) and sets["p"].steps(10.0, 5000) == 17280
     with pytest.raises(ValueError, match="unknown channel 'x9'"):
         Sensor("x9", 10.0, 1.0)
-    assert CHANNELS[-4:] == ("U_cell", "U_pot", "c2", "c3")
+    assert CHANNELS[-5:] == ("U_cell", "U_pot", "c2", "c3", "m_tap")
 
 
 def test_a_pot_line_logs_the_pot_voltage_of_4_2_volts(truth):
@@ -103,3 +104,27 @@ def test_unmeasured_ledge_is_recovered_and_a_wrong_model_is_flagged(truth):
     assert not any(t.flagged for t in innovation_tests(right.innovation, channels))
     wrong = innovation_tests(estimate_states(ablated_model(), y, u, channels, noise, 10.0).innovation, channels)
     assert {t.channel for t in wrong if t.flagged} >= {"x6"}
+
+
+def test_a_crane_scale_reads_each_tap_once_and_weighs_what_left_the_cell(truth):
+    """The tapping shortfall's cell removes 90 % of the logged u4: its scale reads 0.9 u4 at each tap's first
+    step, the same record under the model without the shortfall reads u4, and the other channels' samples do not
+    change when the scale is added to a set."""
+    x, u = truth
+    case = find_case("tapping_shortfall")
+    shortfall, _ = case.models(true_model())
+    taps = tap_starts(u)
+    u4 = u[..., 3]
+    assert taps.sum() >= 3 and (u4[taps] > 0).all() and not (taps[:, 1:] & (u4[:, :-1] > 0)).any()
+    voltage = Sensor("U_cell", 10.0, 0.005)
+    scale = Sensor("m_tap", AT_TAPS, 1e-9)
+    with_scale = measure(shortfall, x, u, 10.0, SensorSet("s", (voltage, scale)), np.random.default_rng(3))
+    without = measure(shortfall, x, u, 10.0, SensorSet("s", (voltage,)), np.random.default_rng(3))
+    weighed = with_scale["m_tap"].to_numpy().reshape(u4.shape)
+    assert (np.isfinite(weighed) == taps).all()
+    np.testing.assert_allclose(weighed[taps], 0.9 * u4[taps], rtol=1e-6)
+    np.testing.assert_allclose(observe(true_model(), x, u, ["m_tap"])[..., 0], u4)
+    np.testing.assert_array_equal(with_scale["U_cell"], without["U_cell"])
+    assert Sensor("m_tap", AT_TAPS).interval == "at each tap" and voltage.interval == "every 10 s"
+    with pytest.raises(ValueError, match="every_s is a number of seconds or 'tap'"):
+        Sensor("m_tap", "daily", 1.0)

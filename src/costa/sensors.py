@@ -3,15 +3,19 @@
 A *channel* is one measured quantity: a state ``x1..x8``, the cell voltage
 ``U_cell`` [V] (the model's U = g5 + u2 u5 / (2620 g2)), the pot voltage ``U_pot``
 [V] (U + E0 + R_ext u2, :mod:`costa.observe`), or the bath's Al2O3 and AlF3 mass
-fractions ``c2``, ``c3`` [-].  A :class:`SensorSet` says which channels are
-measured, every how many seconds, and with what Gaussian noise (absolute, in the
-channel's unit).  :func:`measure` turns a simulated truth into the tidy table a
+fractions ``c2``, ``c3`` [-], or the metal a tap removed as the crane scale weighs it,
+``m_tap`` [kg/s].  A :class:`SensorSet` says which channels are measured, every how
+many seconds (or at each tap, :data:`AT_TAPS`), and with what Gaussian noise (absolute,
+in the channel's unit).  :func:`measure` turns a simulated truth into the tidy table a
 plant would log: inputs at every step (they are logged commands), each measured
 channel at its own samples and NaN in between, unmeasured channels absent.
 
 A channel sampled less often than every step starts at a random phase per
 trajectory (drawn from the given stream): hand samples are not taken at the same
-minute in every cell.
+minute in every cell.  A channel sampled at taps is read once a tap, at its first
+step (a tap is a run of steps with logged u4 > 0): the scale's weight of the tap
+divided by its duration is the delivered tapping rate there, exactly where the share
+delivered does not change during the tap.
 """
 
 from __future__ import annotations
@@ -25,26 +29,49 @@ import pandas as pd
 from .data import to_table
 from .observe import observe
 from .physics import CellModel
-from .variables import CHANNELS, STATES
+from .variables import CHANNELS, INPUTS, STATES
 
-__all__ = ["AVAILABLE", "CHANNELS", "Sensor", "SensorSet", "measure", "sensor_sets_from_config"]
+__all__ = [
+    "AT_TAPS",
+    "AVAILABLE",
+    "CHANNELS",
+    "Sensor",
+    "SensorSet",
+    "measure",
+    "sensor_sets_from_config",
+    "tap_starts",
+]
+
+
+#: ``every_s`` of a channel read once at each tap (the crane scale's weight of the metal tapped).
+AT_TAPS = "tap"
 
 
 @dataclass(frozen=True)
 class Sensor:
-    """One channel sampled every ``every_s`` seconds with Gaussian noise of std ``noise``.
+    """One channel sampled every ``every_s`` seconds (or at each tap: :data:`AT_TAPS`) with Gaussian
+    noise of std ``noise``.
 
     ``noise`` None: the noise of the data set it is applied to (a shipped case's
     fraction of each state's std), for the ``full`` set that reproduces today's data.
     """
 
     channel: str
-    every_s: float
+    every_s: float | str
     noise: float | None = None
 
     def __post_init__(self):
         if self.channel not in CHANNELS:
             raise ValueError(f"unknown channel {self.channel!r}; known: {list(CHANNELS)}")
+        if isinstance(self.every_s, str) and self.every_s != AT_TAPS:
+            raise ValueError(
+                f"sensor {self.channel!r}: every_s is a number of seconds or {AT_TAPS!r}, not {self.every_s!r}"
+            )
+
+    @property
+    def interval(self) -> str:
+        """``every 600 s`` or ``at each tap``."""
+        return "at each tap" if self.every_s == AT_TAPS else f"every {self.every_s:g} s"
 
 
 #: What a pot line can measure, at its usual intervals and with typical noise (the ones
@@ -104,16 +131,47 @@ def measure(
     the noise std of channels whose sensor leaves it to the data set.
     """
     n, steps = x.shape[:2]
-    values = observe(model, x, u, sensors.channels)
-    noise = np.array([_noise(sensor, sensors.name, default_noise) for sensor in sensors.sensors])
-    noisy = values + rng.normal(size=values.shape) * noise  # drawn first, as one array: the full set is today's data
+    timed = [s for s in sensors.sensors if s.every_s != AT_TAPS]
+    at_taps = [s for s in sensors.sensors if s.every_s == AT_TAPS]
     table = to_table(x, u, dt).drop(columns=list(STATES))
-    for c, sensor in enumerate(sensors.sensors):
-        every = max(1, int(round(sensor.every_s / dt)))
-        phase = rng.integers(0, every, size=n) if every > 1 else np.zeros(n, dtype=int)
-        sampled = (np.arange(steps)[None, :] - phase[:, None]) % every == 0
-        table[sensor.channel] = np.where(sampled, noisy[..., c], np.nan).ravel()
-    return table
+    # the timed channels' noise first, as one array (the full set is today's data), their phases next,
+    # the taps' readings last: adding a tap channel to a set leaves its other samples as they were
+    noisy = _noisy(model, x, u, timed, sensors.name, default_noise, rng)
+    for c, sensor in enumerate(timed):
+        table[sensor.channel] = np.where(_every(sensor.every_s, dt, n, steps, rng), noisy[..., c], np.nan).ravel()
+    if at_taps:
+        noisy = _noisy(model, x, u, at_taps, sensors.name, default_noise, rng)
+        for c, sensor in enumerate(at_taps):
+            table[sensor.channel] = np.where(tap_starts(u), noisy[..., c], np.nan).ravel()
+    return table[[*table.columns[: -len(sensors.sensors)], *sensors.channels]]
+
+
+def _noisy(
+    model: CellModel,
+    x: np.ndarray,
+    u: np.ndarray,
+    sensors: list[Sensor],
+    set_name: str,
+    default_noise: Mapping[str, float] | None,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """(n, K, C) the sensors' channels with their Gaussian noise, drawn as one array."""
+    values = observe(model, x, u, [s.channel for s in sensors])
+    noise = np.array([_noise(sensor, set_name, default_noise) for sensor in sensors])
+    return values + rng.normal(size=values.shape) * noise
+
+
+def tap_starts(u: np.ndarray) -> np.ndarray:
+    """(n, K) True at the first step of each tap: logged u4 > 0 where the step before had none."""
+    tapping = u[..., INPUTS.index("u4")] > 0
+    return tapping & ~np.pad(tapping, [(0, 0)] * (tapping.ndim - 1) + [(1, 0)])[..., :-1]
+
+
+def _every(every_s: float, dt: float, n: int, steps: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, K) True every ``every_s`` seconds, from a random phase per trajectory."""
+    every = max(1, int(round(every_s / dt)))
+    phase = rng.integers(0, every, size=n) if every > 1 else np.zeros(n, dtype=int)
+    return (np.arange(steps)[None, :] - phase[:, None]) % every == 0
 
 
 def _noise(sensor: Sensor, set_name: str, default: Mapping[str, float] | None) -> float:

@@ -2,8 +2,9 @@
 
 States are x1..x8 and inputs u1..u5 as in the paper (array index = number - 1).
 A measured table may also carry the model's outputs: the cell voltage ``U_cell``
-(the bath's and bubbles' part), the pot voltage ``U_pot`` (what a pot line logs) and
-the bath's Al2O3 and AlF3 mass fractions ``c2``, ``c3``.  States and outputs are the
+(the bath's and bubbles' part), the pot voltage ``U_pot`` (what a pot line logs),
+the bath's Al2O3 and AlF3 mass fractions ``c2``, ``c3`` and the metal a tap removed as
+the crane scale weighs it, ``m_tap`` (per second of the tap, at its first step).  States and outputs are the
 measurement *channels*; ``g1`` (the simulator's true liquidus temperature) is kept in
 simulated tables for reference only.
 """
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 STATES: tuple[str, ...] = tuple(f"x{i}" for i in range(1, 9))
 INPUTS: tuple[str, ...] = tuple(f"u{i}" for i in range(1, 6))
-OUTPUTS: tuple[str, ...] = ("U_cell", "U_pot", "c2", "c3")
+OUTPUTS: tuple[str, ...] = ("U_cell", "U_pot", "c2", "c3", "m_tap")
 CHANNELS: tuple[str, ...] = (*STATES, *OUTPUTS)
 AUXILIARY: tuple[str, ...] = ("g1",)
 
@@ -35,6 +36,7 @@ MEANING: dict[str, str] = {
     "U_pot": "pot voltage",
     "c2": "Al2O3 mass fraction of the bath",
     "c3": "AlF3 mass fraction of the bath",
+    "m_tap": "metal tapped, as weighed",
     "time_s": "time",
 }
 
@@ -57,6 +59,7 @@ UNIT: dict[str, str] = {
     "U_pot": "V",
     "c2": "-",
     "c3": "-",
+    "m_tap": "kg/s",
     "time_s": "s",
 }
 

@@ -19,6 +19,7 @@ for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 # The same CPU kernels for every job, whatever the shell says (config `kernels`):
 # the numbers then do not depend on the CPU (docs/reproducibility.md).
 from costa.kernels import kernel_environment  # noqa: E402
+from costa.sensors import Sensor  # noqa: E402
 
 os.environ.update(kernel_environment(config["kernels"]))
 
@@ -236,7 +237,7 @@ def sensor_meta(wildcards):
     """What findings.json records about a case measured by a sensor set."""
     sensor_set = config["discovery"]["sensor_sets"][wildcards.sensors]
     described = ", ".join(
-        f"{channel} every {spec['every_s']:g} s"
+        f"{channel} {Sensor(channel, spec['every_s']).interval}"
         + (f" (noise {spec['noise']:g})" if "noise" in spec else "")
         for channel, spec in sensor_set["channels"].items()
     )

@@ -183,6 +183,10 @@ class CellModel:
         """Every part's value at states x (..., 8) and inputs u (..., 5)."""
         return self._evaluate(self._variables(x, u))[1]
 
+    def delivered_inputs(self, x: Array, u: Array) -> Array:
+        """The inputs (..., 5) as they reach the cell: the logged u where no input correction applies."""
+        return self._variables(x, u).u
+
     def reads(self, x: Array, u: Array) -> dict[str, frozenset[str]]:
         """What each part reads directly, recorded by evaluating it at states x and inputs u:
         cell variables (``x6``, ``c2``, ``u2``, ...), constants (``k1``, ...) and earlier parts."""
