@@ -152,6 +152,8 @@ EVENTS = [
      "events.csv: column 'time_s' must not decrease within a trajectory; row 1 goes back from 600 to 300"),
     ("unknown event kind", "trajectory,time_s,kind,amount_kg\n0,60,alumina_dose,1.8\n1,60,anode_change,900\n",
      "events.csv: column 'kind' has the unknown kind 'anode_change' at row 1; known: tap, alf3_addition, alumina_dose"),
+    ("a weighed dose", "trajectory,time_s,kind,amount_kg,weighed_kg\n0,60,alumina_dose,1.8,\n0,90,alumina_dose,1.8,1.7\n",
+     "events.csv: column 'weighed_kg' has a value at row 1, a 'alumina_dose': only taps are weighed"),
 ]  # fmt: skip
 
 CASES = [pytest.param(text, message, None, None, None, id=name) for name, text, message in CONFIGS]

@@ -142,7 +142,8 @@ def test_a_sparse_table_loads_and_absent_channels_stay_absent(sparse):
 
 def test_the_channel_report_counts_samples_and_intervals(sparse):
     report = channel_report(load_trajectories(sparse)).set_index("channel")
-    assert list(report.index) == ["x1", "x2", "x3", "x4", "x5", "x6", "x7", "x8", "U_cell", "U_pot", "c2", "c3"]
+    states = [f"x{i}" for i in range(1, 9)]
+    assert list(report.index) == [*states, "U_cell", "U_pot", "c2", "c3", "m_tap"]
     columns = ["status", "samples", "share", "interval_s", "first_s", "last_s", "trajectories"]
     assert report.loc["x6", columns].tolist() == ["every step", 60, 1.0, 10.0, 0.0, 190.0, 3]
     assert report.loc["x2", columns].tolist() == ["sampled", 12, 0.2, 60.0, 0.0, 180.0, 3]

@@ -116,3 +116,24 @@ def test_a_bad_events_file_stops_the_run_at_its_config_key(tmp_path):
     user = {"path": str(_record(tmp_path / "cell.csv")), "events": str(events), "name": "cell"}
     with pytest.raises(TrajectoryDataError, match=r"^invalid data at 'discovery.user_data.events': .*events.csv: "):
         check_user_data(load_config(overrides={"discovery": {"user_data": user}}))
+
+
+def test_a_weighed_tap_is_a_sample_of_the_tapping_that_reached_the_cell(tmp_path):
+    """1000 kg ordered over 10 min from 95 s, 900 kg on the scale: one m_tap sample of 900/600 kg/s in a full step
+    of the tap, against u4 = 1000/600 there; the unweighed tap gives none; a weight on a dose is refused."""
+    events = tmp_path / "events.csv"
+    pd.DataFrame(
+        [(1, 95.0, "tap", 1000.0, 600.0, 900.0), (0, 95.0, "tap", 1000.0, 600.0, np.nan)],
+        columns=["trajectory", "time_s", "kind", "amount_kg", "duration_s", "weighed_kg"],
+    ).to_csv(events, index=False)
+    table = load_trajectories_with_events(_record(tmp_path / "cell.csv"), events)
+    weighed, u4 = _rates(table, "m_tap"), _rates(table, "u4")
+    sampled = np.argwhere(np.isfinite(weighed))
+    assert len(sampled) == 1 and sampled[0][0] == 1 and 10 <= sampled[0][1] < 69
+    assert weighed[tuple(sampled[0])] == pytest.approx(0.9 * u4[tuple(sampled[0])], rel=1e-12)
+    pd.DataFrame(
+        [(0, 95.0, "alumina_dose", 1.8, 0.0, 1.8)],
+        columns=["trajectory", "time_s", "kind", "amount_kg", "duration_s", "weighed_kg"],
+    ).to_csv(events, index=False)
+    with pytest.raises(TrajectoryDataError, match="'weighed_kg' has a value at row 0, a 'alumina_dose'"):
+        load_trajectories_with_events(tmp_path / "cell.csv", events)

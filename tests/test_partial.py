@@ -360,7 +360,7 @@ def test_a_pot_line_record_too_short_to_test_after_the_filter_settles_is_refused
             starting_model(config, "full"),
             "pot",
             "pot.csv",
-            {"x6": 1.5, "c3": 0.002, "x5": 15},
+            {"x6": 1.5, "c3": 0.002, "x5": 15, "m_tap": 1.0},
         )
 
 

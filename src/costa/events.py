@@ -9,7 +9,13 @@ Parquet) has one row per event:
   ``alumina_dose`` (Al2O3 fed, u1);
 - ``amount_kg`` [kg];
 - ``duration_s`` [s], optional: how long it lasts (a tap's siphoning); empty or 0 puts
-  the whole amount into the step it falls in.
+  the whole amount into the step it falls in;
+- ``weighed_kg`` [kg], optional, taps only: the metal the crane scale weighed in the
+  crucible, where ``amount_kg`` is the tap as ordered (from the metal height and the
+  tapping schedule).  It becomes a sample of the channel ``m_tap`` [kg/s], the tapping
+  rate that reached the cell, at the step that holds most of the tap: a second
+  measurement of u4 that tells a tap that took less than ordered from a cell that made
+  less metal.  Leave it out where the logged amount already is the scale's weight.
 
 The model holds each input over a step [t_k, t_k + dt), so :func:`event_rates` gives
 each step the share of the amount delivered within it, divided by dt: the rate
@@ -32,10 +38,18 @@ import pandas as pd
 # the trajectory table's reader and checks serve the events table too
 from .data import TrajectoryDataError, _check_numeric, _first_row, _read, load_trajectories, time_step
 
-__all__ = ["EVENT_COLUMNS", "EVENT_KINDS", "EventKind", "event_rates", "load_trajectories_with_events", "read_events"]
+__all__ = [
+    "EVENT_COLUMNS",
+    "EVENT_KINDS",
+    "EventKind",
+    "event_rates",
+    "load_trajectories_with_events",
+    "read_events",
+    "weighed_taps",
+]
 
-EVENT_COLUMNS = ("trajectory", "time_s", "kind", "amount_kg", "duration_s")
-REQUIRED_EVENT_COLUMNS = EVENT_COLUMNS[:4]  # duration_s is optional
+EVENT_COLUMNS = ("trajectory", "time_s", "kind", "amount_kg", "duration_s", "weighed_kg")
+REQUIRED_EVENT_COLUMNS = EVENT_COLUMNS[:4]  # duration_s and weighed_kg are optional
 
 
 @dataclass(frozen=True)
@@ -64,13 +78,19 @@ def load_trajectories_with_events(
     record: str | Path, events: str | Path, unlogged: Mapping[str, float] | None = None
 ) -> pd.DataFrame:
     """A trajectory table (:func:`costa.data.load_trajectories`, ``unlogged`` inputs held at their stated
-    values) with its events' rates [kg/s] added to u1, u3, u4."""
+    values) with its events' rates [kg/s] added to u1, u3, u4, and its weighed taps as ``m_tap``."""
     table = load_trajectories(record, unlogged)
     found = read_events(events)
     _check_against_record(Path(events), found, table, Path(record))
     table = table.copy()
     for name, rate in event_rates(found, table).items():
         table[name] = table[name] + rate
+    if found["weighed_kg"].notna().any():
+        if "m_tap" in table.columns:
+            raise TrajectoryDataError(
+                f"{events}: column 'weighed_kg' and {record}'s column 'm_tap' both weigh the taps"
+            )
+        table["m_tap"] = weighed_taps(found, table)
     return table
 
 
@@ -82,8 +102,8 @@ def read_events(path: str | Path) -> pd.DataFrame:
     missing = [c for c in REQUIRED_EVENT_COLUMNS if c not in events.columns]
     if missing:
         raise TrajectoryDataError(f"{path}: missing column(s) {missing}; an events table needs {list(EVENT_COLUMNS)}")
-    events = events.assign(duration_s=events.get("duration_s", 0.0))
-    _check_numeric(path, events, ("trajectory", "time_s", "amount_kg", "duration_s"))
+    events = events.assign(duration_s=events.get("duration_s", 0.0), weighed_kg=events.get("weighed_kg", np.nan))
+    _check_numeric(path, events, ("trajectory", "time_s", "amount_kg", "duration_s", "weighed_kg"))
     for column in REQUIRED_EVENT_COLUMNS:
         if events[column].isna().any():
             row = _first_row(events[column].isna())
@@ -97,6 +117,7 @@ def read_events(path: str | Path) -> pd.DataFrame:
             f"known: {', '.join(EVENT_KINDS)}"
         )
     _check_amounts(path, events)
+    _check_weights(path, events)
     _check_durations(path, events)
     _check_time_order(path, events)
     return events
@@ -105,18 +126,37 @@ def read_events(path: str | Path) -> pd.DataFrame:
 def event_rates(events: pd.DataFrame, table: pd.DataFrame) -> dict[str, np.ndarray]:
     """The rate [kg/s] at each row of the checked ``table`` that the checked ``events`` feed, per input."""
     dt = time_step(table)
+    delivered = {kind.input: np.zeros(len(table)) for kind in EVENT_KINDS.values()}
+    for event, rows, share in _event_steps(events, table):
+        delivered[EVENT_KINDS[event.kind].input][rows] += event.amount_kg * share
+    return {name: amount / dt for name, amount in delivered.items()}
+
+
+def weighed_taps(events: pd.DataFrame, table: pd.DataFrame) -> np.ndarray:
+    """``m_tap`` at each row of the checked ``table`` [kg/s]: each weighed tap's rate, weighed_kg times its share
+    in the step that holds most of it over dt; NaN elsewhere."""
+    dt = time_step(table)
+    weighed = np.full(len(table), np.nan)
+    for event, rows, share in _event_steps(events, table):
+        if event.kind == "tap" and np.isfinite(event.weighed_kg):
+            most = int(np.argmax(share))
+            weighed[rows[most]] = event.weighed_kg * share[most] / dt
+    return weighed
+
+
+def _event_steps(events: pd.DataFrame, table: pd.DataFrame):
+    """(event, rows of ``table``, share of its amount delivered in each) for every event."""
+    dt = time_step(table)
     time = table["time_s"].to_numpy(dtype=np.float64)
     rows_of = table.reset_index(drop=True).groupby("trajectory").indices
     # step k of a trajectory runs from edges[k] to edges[k + 1]
     edges_of = {t: np.append(time[rows], time[rows[-1]] + dt) for t, rows in rows_of.items()}
-    delivered = {kind.input: np.zeros(len(table)) for kind in EVENT_KINDS.values()}
     for event in events.itertuples():
         rows, edges = rows_of[event.trajectory], edges_of[event.trajectory]
         first = np.searchsorted(edges, event.time_s, side="right") - 1
         last = max(np.searchsorted(edges, event.time_s + event.duration_s, side="left"), first + 1)
         share = _delivered_share(edges[first : last + 1], event.time_s, event.duration_s)
-        delivered[EVENT_KINDS[event.kind].input][rows[first:last]] += event.amount_kg * np.diff(share)
-    return {name: amount / dt for name, amount in delivered.items()}
+        yield event, rows[first:last], np.diff(share)
 
 
 def _delivered_share(times: np.ndarray, start: float, duration: float) -> np.ndarray:
@@ -133,6 +173,25 @@ def _check_amounts(path: Path, events: pd.DataFrame) -> None:
         row = _first_row(amount <= 0)
         raise TrajectoryDataError(f"{path}: column 'amount_kg' must be positive, row {row} has {amount[row]:g}")
     _check_kind_range(path, events, "amount_kg", "kg")
+
+
+def _check_weights(path: Path, events: pd.DataFrame) -> None:
+    """A weight only for taps, positive and within a tap's range of amounts."""
+    weighed = events["weighed_kg"].notna().to_numpy()
+    not_tap = weighed & (events["kind"] != "tap").to_numpy()
+    if not_tap.any():
+        row = _first_row(not_tap)
+        raise TrajectoryDataError(
+            f"{path}: column 'weighed_kg' has a value at row {row}, a {events['kind'].iloc[row]!r}: only taps are weighed"
+        )
+    low, high = EVENT_KINDS["tap"].amount_kg
+    value = events["weighed_kg"].to_numpy(dtype=np.float64)
+    outside = weighed & ((value < low) | (value > high))
+    if outside.any():
+        row = _first_row(outside)
+        raise TrajectoryDataError(
+            f"{path}: column 'weighed_kg' must lie in {low:g}-{high:g} kg for a tap, row {row} has {value[row]:g}"
+        )
 
 
 def _check_durations(path: Path, events: pd.DataFrame) -> None:
