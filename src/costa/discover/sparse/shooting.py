@@ -1,0 +1,275 @@
+"""Multiple shooting: a closed form's coefficients and the cells' states fitted together.
+
+The record of each cell is cut into segments of ``segment_s``; every segment starts from
+a state of its own, integrated by RK4 over the segment, and meets the measured channels
+where they are sampled.  Continuity between segments is a soft residual, so a model that
+drifts far from the data in one segment does not carry the error into the next: the
+objective has no cliffs where a filter would lose a cell.  Coefficients and every
+segment's start are fitted by Levenberg-Marquardt; the sensitivities of every segment to
+its start and the coefficients are finite differences, integrated side by side as rows
+of one batch (cell x segment x direction), and the normal equations are solved by
+eliminating each cell's states (a Schur complement on the shared coefficients).
+
+The starts need no model: the sampled states are interpolated to each segment's first
+step, the Al2O3 fraction (which only the voltage shows, not monotonically) is the best of
+:data:`ALUMINA_GRID` over the segment, and the rest is the nominal cell.  The states are
+fitted first with the coefficients held, then everything together.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...integrate import rk4_step
+from ...observe import observe
+from ...physics import CellModel
+from ..core.hypotheses import Hypothesis
+from ..core.library import Feature
+from .observations import Observations
+from .observed import NOMINAL_STATE, PRIOR_STD, PROCESS_STD
+
+__all__ = ["ALUMINA_GRID", "ShootingFit", "segment_starts", "shooting_fit"]
+
+#: Al2O3 mass fractions tried for each segment's first state
+ALUMINA_GRID = (0.022, 0.026, 0.03, 0.035, 0.04, 0.05)
+#: the bath mass [kg] a segment starts from where nothing measures it
+BATH_KG = 14000.0
+#: how far [state unit] a segment's end may miss the next segment's start (1 std): the filter's
+#: process noise over an hour's steps, times 100 (a soft constraint; the fit ends well inside it)
+CONTINUITY_PER_SQRT_STEP = 100 * PROCESS_STD
+#: the states are fitted first with the continuity this many times looser: far from the data, each
+#: segment then finds its own cell before the segments are tied together
+LOOSE = 10.0
+#: finite-difference steps: a state's share of its prior std, a coefficient's absolute step
+STATE_STEP, COEFFICIENT_STEP = 1e-4, 1e-4
+
+
+@dataclass(frozen=True)
+class ShootingFit:
+    """The fitted coefficients (P,), segment starts (n, S, 8), the cost (the sum of squared
+    residuals, each in noise stds; minus twice a log-likelihood up to a constant), each
+    channel's mean squared residual over its samples, the segments left out (lost already
+    at the start) and the Levenberg-Marquardt iterations taken."""
+
+    theta: np.ndarray
+    starts: np.ndarray
+    cost: float
+    chi2: dict[str, float]
+    lost: int
+    iterations: int
+
+
+class _Segments:
+    """The record as rows (cell-major, then segment) of ``steps`` samples each, and the
+    corrected model integrated over them with its sensitivities."""
+
+    def __init__(self, model: CellModel, hypothesis: Hypothesis, features: Sequence[Feature], obs: Observations, steps):
+        n, samples, channels = obs.y.shape
+        self.obs, self.steps, self.n = obs, steps, n
+        self.count = samples // steps
+        used = self.count * steps
+        self.y = obs.y[:, :used].reshape(n * self.count, steps, channels)
+        self.u = obs.u[:, :used].reshape(n * self.count, steps, obs.u.shape[-1])
+        self.sampled = np.isfinite(self.y)
+        self.terms = len(features)
+        self._theta = np.zeros((0, self.terms))
+        self.model = hypothesis.parametrised(model, features, lambda: self._theta)
+
+    def integrate(self, starts: np.ndarray, theta: np.ndarray, directions: bool = True):
+        """Channels (R, D, steps, C) and end states (R, D, 8) of every row from ``starts`` (R, 8)
+        under ``theta`` (P,); D = 1 + 8 + P where ``directions`` (the finite-difference rows), else 1."""
+        rows = len(starts)
+        size = 1 + (8 + self.terms if directions else 0)
+        x = np.repeat(starts[:, None], size, 1)
+        theta = np.repeat(np.broadcast_to(theta, (rows, self.terms))[:, None], size, 1).copy()
+        if directions:
+            x[:, 1:9] += np.diag(STATE_STEP * PRIOR_STD)
+            theta[:, 9:] += COEFFICIENT_STEP * np.eye(self.terms)
+        x = x.reshape(rows * size, 8)
+        self._theta = theta.reshape(rows * size, self.terms)
+        u = np.repeat(self.u, size, 0)
+        out = np.empty((rows * size, self.steps, self.y.shape[-1]))
+        with np.errstate(all="ignore"):
+            for k in range(self.steps):
+                out[:, k] = observe(self.model, x, u[:, k], self.obs.channels)
+                x = rk4_step(self.model.rhs, x, u[:, k], self.obs.dt)
+        return out.reshape(rows, size, self.steps, -1), x.reshape(rows, size, 8)
+
+    def misfit(self, out: np.ndarray) -> np.ndarray:
+        """Measurement residuals (R, steps, C) in noise stds; 0 where not sampled."""
+        return np.where(self.sampled, (out - np.nan_to_num(self.y)) / self.obs.noise, 0.0)
+
+
+def segment_starts(segments: _Segments, theta: np.ndarray) -> np.ndarray:
+    """Each segment's first state (R, 8) from the data alone (see the module's docstring)."""
+    obs, n, count, steps = segments.obs, segments.n, segments.count, segments.steps
+    at = np.arange(count) * steps
+    start = np.tile(NOMINAL_STATE, (n, count, 1))
+
+    def sampled(name: str, default: float) -> np.ndarray:
+        if name not in obs.channels:
+            return np.full((n, count), default)
+        values = obs.y[..., obs.channels.index(name)]
+        k = np.arange(values.shape[1])
+        return np.array([np.interp(at, k[np.isfinite(v)], v[np.isfinite(v)]) for v in values])
+
+    start[..., 4], start[..., 5] = sampled("x5", NOMINAL_STATE[4]), sampled("x6", NOMINAL_STATE[5])
+    alf3 = sampled("c3", 0.11)
+    grid = np.repeat(start[None], len(ALUMINA_GRID), 0)
+    for g, alumina in enumerate(ALUMINA_GRID):
+        grid[g, ..., 1], grid[g, ..., 2] = alumina * BATH_KG, alf3 * BATH_KG
+        grid[g, ..., 3] = (1 - alumina - alf3) * BATH_KG
+    grid = grid.reshape(len(ALUMINA_GRID), n * count, 8)
+    cost = np.full(grid.shape[:2], np.inf)
+    for g, candidate in enumerate(grid):
+        out, _ = segments.integrate(candidate, theta, directions=False)
+        cost[g] = np.nan_to_num((segments.misfit(out[:, 0]) ** 2).sum((1, 2)), nan=np.inf)
+    return grid[cost.argmin(0), np.arange(n * count)]
+
+
+def shooting_fit(
+    model: CellModel,
+    hypothesis: Hypothesis,
+    features: Sequence[Feature],
+    obs: Observations,
+    segment_s: float = 3600.0,
+    theta: np.ndarray | None = None,
+    iterations: tuple[int, int] = (8, 30),
+) -> ShootingFit:
+    """``model`` corrected by ``hypothesis`` with the closed form sum_k theta_k f_k, fitted to
+    ``obs`` by multiple shooting over segments of ``segment_s`` [s]: ``iterations`` of the
+    states alone (theta held at ``theta``, default 0; the continuity :data:`LOOSE`), then of
+    the states and theta together."""
+    segments = _Segments(model, hypothesis, features, obs, max(1, round(segment_s / obs.dt)))
+    theta = np.zeros(len(features)) if theta is None else np.asarray(theta, dtype=float)
+    starts = segment_starts(segments, theta)
+    fit = _Fit(segments, starts)
+    fit.leave_out_lost(starts, theta)
+    fit.sigma = LOOSE * fit.continuity
+    starts, theta, held_done = fit.run(starts, theta, iterations[0], hold_theta=True)
+    fit.sigma = fit.continuity
+    starts, theta, done = fit.run(starts, theta, iterations[1], hold_theta=False)
+    residual = segments.misfit(fit.out[:, 0])[fit.active]
+    sampled = segments.sampled[fit.active]
+    chi2 = {c: float((residual[..., k] ** 2).sum() / max(1, sampled[..., k].sum())) for k, c in enumerate(obs.channels)}
+    shape = (segments.n, segments.count, 8)
+    return ShootingFit(theta, starts.reshape(shape), fit.cost, chi2, int((~fit.active).sum()), held_done + done)
+
+
+class _Fit:
+    """Levenberg-Marquardt over the segment starts (scaled by :data:`PRIOR_STD`) and theta."""
+
+    def __init__(self, segments: _Segments, starts: np.ndarray):
+        self.segments = segments
+        self.continuity = CONTINUITY_PER_SQRT_STEP * np.sqrt(segments.steps)
+        self.sigma = self.continuity
+        self.prior_mean = starts.reshape(segments.n, segments.count, 8)[:, 0]
+        self.active = np.ones(len(starts), dtype=bool)
+        self.damping = 1e-3
+
+    def residuals(self, out, ends, starts):
+        """Measurement (R, steps, C), continuity (n, S-1, 8) and first-start prior (n, 8) residuals."""
+        n, count = self.segments.n, self.segments.count
+        measured = self.segments.misfit(out[:, 0])
+        measured[~self.active] = 0.0
+        linked = self.active.reshape(n, count)
+        linked = linked[:, :-1] & linked[:, 1:]
+        continuity = (ends[:, 0].reshape(n, count, 8)[:, :-1] - starts.reshape(n, count, 8)[:, 1:]) / self.sigma
+        continuity[~linked] = 0.0
+        prior = (starts.reshape(n, count, 8)[:, 0] - self.prior_mean) / PRIOR_STD
+        return measured, continuity, prior, linked
+
+    def evaluate(self, starts, theta):
+        out, ends = self.segments.integrate(starts, theta)
+        measured, continuity, prior, linked = self.residuals(out, ends, starts)
+        cost = float((measured**2).sum() + (continuity**2).sum() + (prior**2).sum())
+        return out, ends, (measured, continuity, prior, linked), cost if np.isfinite(cost) else np.inf
+
+    def leave_out_lost(self, starts, theta):
+        """Leave out the segments whose integration is lost already from their first state."""
+        out, ends = self.segments.integrate(starts, theta, directions=False)
+        self.active = np.isfinite(self.segments.misfit(out[:, 0])).all((1, 2)) & np.isfinite(ends[:, 0]).all(1)
+
+    def run(self, starts, theta, iterations, hold_theta):
+        """Up to ``iterations`` steps from ``starts``, ``theta``: (starts, theta, steps taken)."""
+        self.out, self.ends, res, self.cost = self.evaluate(starts, theta)
+        done = 0
+        for done in range(1, iterations + 1):
+            normal = self.normal_equations(res, hold_theta)
+            while True:
+                step_z, step_t = _solve(*normal, self.damping)
+                trial_z = starts + (step_z.reshape(-1, 8) * PRIOR_STD)
+                trial_t = theta + step_t
+                out, ends, trial_res, cost = self.evaluate(trial_z, trial_t)
+                if cost < self.cost:
+                    improved = (self.cost - cost) / self.cost
+                    starts, theta, self.out, self.ends, res, self.cost = trial_z, trial_t, out, ends, trial_res, cost
+                    self.damping = max(self.damping / 10, 1e-7)
+                    break
+                self.damping *= 10
+                if self.damping > 1e8:
+                    return starts, theta, done
+            if improved < 1e-7:
+                break
+        return starts, theta, done
+
+    def normal_equations(self, res, hold_theta):
+        """Per cell: the states' block A (n, S8, S8), the states-theta block B (n, S8, P), its
+        gradient g (n, S8); and theta's C (P, P) and h (P,) (zero where theta is held)."""
+        seg = self.segments
+        n, count, terms = seg.n, seg.count, seg.terms
+        measured, continuity, prior, linked = res
+        # derivatives in the scaled starts (units of PRIOR_STD) and in theta
+        scale = np.concatenate([np.full(8, 1 / STATE_STEP), np.full(terms, 1 / COEFFICIENT_STEP)])
+        with np.errstate(all="ignore"):
+            jm = (self.out[:, 1:] - self.out[:, :1]) / seg.obs.noise * scale[None, :, None, None]
+            je = (self.ends[:, 1:] - self.ends[:, :1]) * scale[None, :, None] / self.sigma[None, None, :]
+        jm = np.where(seg.sampled[:, None] & self.active[:, None, None, None], np.nan_to_num(jm), 0.0)
+        je = np.nan_to_num(je)
+        block = np.einsum("rikc,rjkc->rij", jm, jm).reshape(n, count, 8 + terms, 8 + terms)
+        grad = np.einsum("rikc,rkc->ri", jm, measured).reshape(n, count, 8 + terms)
+        a = np.zeros((n, count, 8, count, 8))
+        b = np.zeros((n, count, 8, terms))
+        g = grad[..., :8].copy()
+        c = block[..., 8:, 8:].sum((0, 1))
+        h = grad[..., 8:].sum((0, 1))
+        for s in range(count):
+            a[:, s, :, s, :] += block[:, s, :8, :8]
+            b[:, s] += block[:, s, :8, 8:]
+        je = je.reshape(n, count, 8 + terms, 8)
+        jump = PRIOR_STD / self.sigma  # d continuity / d (the next scaled start): -diag(jump)
+        for s in range(count - 1):
+            on = linked[:, s][:, None, None]
+            phi, tht = je[:, s, :8] * on, je[:, s, 8:] * on  # (n, 8, 8): row = parameter, column = residual
+            r = continuity[:, s]
+            a[:, s, :, s, :] += phi @ np.swapaxes(phi, 1, 2)
+            a[:, s, :, s + 1, :] -= phi * jump
+            a[:, s + 1, :, s, :] -= np.swapaxes(phi * jump, 1, 2)
+            a[:, s + 1, :, s + 1, :] += np.diag(jump**2) * on
+            b[:, s] += phi @ np.swapaxes(tht, 1, 2)
+            b[:, s + 1] -= np.swapaxes(tht, 1, 2) * jump[None, :, None]
+            c += np.einsum("npk,nqk->pq", tht, tht)
+            g[:, s] += np.einsum("npk,nk->np", phi, r)
+            g[:, s + 1] -= r * jump
+            h += np.einsum("npk,nk->p", tht, r)
+        a[:, 0, :, 0, :] += np.eye(8)
+        g[:, 0] += prior
+        a, b, g = a.reshape(n, count * 8, count * 8), b.reshape(n, count * 8, terms), g.reshape(n, count * 8)
+        if hold_theta:
+            b, c, h = np.zeros_like(b), np.eye(terms), np.zeros(terms)
+        return a, b, g, c, h
+
+
+def _solve(a, b, g, c, h, damping):
+    """The damped Gauss-Newton step (states (n, S8), theta (P,)): each cell's states eliminated."""
+    a = a + damping * np.einsum("nii->ni", a)[:, :, None] * np.eye(a.shape[1])
+    c = c + damping * np.diag(np.diag(c))
+    a_inv_b = np.linalg.solve(a, b)
+    a_inv_g = np.linalg.solve(a, g[..., None])[..., 0]
+    schur = c - np.einsum("nip,niq->pq", b, a_inv_b)
+    step_t = np.linalg.solve(schur, -(h - np.einsum("nip,ni->p", b, a_inv_g)))
+    step_z = -(a_inv_g + np.einsum("nip,p->ni", a_inv_b, step_t))
+    return step_z.reshape(-1), step_t
