@@ -29,6 +29,7 @@ from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.batched import closed_form_likelihoods
 from costa.discover.sparse.pipeline import observations
+from costa.sensors import declared_noise
 
 
 def main() -> None:
@@ -41,10 +42,8 @@ def main() -> None:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     config = load_config("config/sensors.yaml")
-    sensors = config["discovery"]["sensor_sets"]["plant"]["channels"]
-    declared = {c: spec["noise"] for c, spec in sensors.items() if "noise" in spec}
     train, _ = case_tables(config, args.case, "plant")
-    obs = observations(train, declared, args.case)
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), args.case)
     steps = round(args.hours * 3600 / obs.dt)
     obs = obs.subset(slice(0, args.cells))
     obs = type(obs)(obs.y[:, :steps], obs.u[:, :steps], obs.channels, obs.noise, obs.dt, obs.start)

@@ -23,6 +23,7 @@ from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.pipeline import observations
 from costa.discover.sparse.shooting import shooting_fit
+from costa.sensors import declared_noise
 
 #: case -> (hypothesis, closed form) fitted: the right one first, then rivals with as many terms
 FITS = {
@@ -47,8 +48,7 @@ def main() -> None:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     config = load_config("config/sensors.yaml")
-    sensors = config["discovery"]["sensor_sets"]["plant"]["channels"]
-    declared = {c: spec["noise"] for c, spec in sensors.items() if "noise" in spec}
+    declared = declared_noise(config["discovery"]["sensor_sets"], "plant")
     for case in args.cases:
         train, _ = case_tables(config, case, "plant")
         obs = observations(train, declared, case).subset(slice(0, args.cells))

@@ -11,6 +11,7 @@ from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.pipeline import observations
 from costa.discover.sparse.shooting import shooting_fit
+from costa.sensors import declared_noise
 
 
 @pytest.mark.integration
@@ -23,8 +24,7 @@ def test_a_planted_conductivity_law_is_recovered_from_a_short_plant_record(defau
     config = copy.deepcopy(default_config)
     config["discovery"]["sensor_sets"]["plant"].update(hours=24, trajectories=2, held_out_trajectories=1)
     train, _ = case_tables(config, "conductivity_alf3", "plant")
-    plant = config["discovery"]["sensor_sets"]["plant"]["channels"]
-    obs = observations(train, {c: spec["noise"] for c, spec in plant.items()}, "conductivity_alf3")
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "conductivity_alf3")
     model = starting_model(config, "full")
     hypothesis = next(h for h in candidate_hypotheses(model) if h.key == "part:bath_conductivity")
     terms = {f.name: f for f in hypothesis.features(rich=True)}

@@ -35,6 +35,7 @@ __all__ = [
     "AT_TAPS",
     "AVAILABLE",
     "CHANNELS",
+    "declared_noise",
     "Sensor",
     "SensorSet",
     "measure",
@@ -179,6 +180,11 @@ def _noise(sensor: Sensor, set_name: str, default: Mapping[str, float] | None) -
     if noise is None:
         raise ValueError(f"sensor {sensor.channel!r} of set {set_name!r} gives no noise and the data set gives none")
     return float(noise)
+
+
+def declared_noise(sets: Mapping[str, Mapping], name: str) -> dict[str, float]:
+    """The noise std of each channel of ``discovery.sensor_sets[name]`` that states one, in the channel's unit."""
+    return {channel: spec["noise"] for channel, spec in sets[name]["channels"].items() if "noise" in spec}
 
 
 def sensor_sets_from_config(sets: Mapping[str, Mapping]) -> dict[str, SensorSet]:

@@ -19,7 +19,7 @@ for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 # The same CPU kernels for every job, whatever the shell says (config `kernels`):
 # the numbers then do not depend on the CPU (docs/reproducibility.md).
 from costa.kernels import kernel_environment  # noqa: E402
-from costa.sensors import Sensor  # noqa: E402
+from costa.sensors import Sensor, declared_noise as sensor_noise  # noqa: E402
 
 os.environ.update(kernel_environment(config["kernels"]))
 
@@ -254,8 +254,7 @@ def sensor_meta(wildcards):
 def declared_noise(wildcards):
     """Noise std of the channels too sparse to estimate it from the data: the sensor set's, or yours."""
     if "sensors" in wildcards.keys():
-        channels = config["discovery"]["sensor_sets"][wildcards.sensors]["channels"]
-        return {c: spec["noise"] for c, spec in channels.items() if "noise" in spec}
+        return sensor_noise(config["discovery"]["sensor_sets"], wildcards.sensors)
     return dict((config["discovery"]["user_data"] or {}).get("noise", {}))
 
 
