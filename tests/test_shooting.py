@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import copy
 
+import numpy as np
 import pytest
 
 from costa.discover.cases.tables import case_tables
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.pipeline import observations
-from costa.discover.sparse.shooting import shooting_fit
+from costa.discover.sparse.shooting import damped_step, shooting_fit
 from costa.sensors import declared_noise
 
 
@@ -32,3 +33,28 @@ def test_a_planted_conductivity_law_is_recovered_from_a_short_plant_record(defau
     assert fit.lost == 0
     assert fit.theta[0] == pytest.approx(-3.5, abs=0.2) and fit.theta[1] == pytest.approx(6.125, abs=1.0)
     assert all(0.5 < chi2 < 1.5 for chi2 in fit.chi2.values()), fit.chi2
+
+
+def test_eliminating_each_cells_states_solves_the_whole_normal_equations():
+    """The Schur-complement step equals the damped Gauss-Newton step of the whole system
+    [[A_1 .. 0 B_1], [.. ..], [0 .. A_n B_n], [B_1^T .. B_n^T C]] solved at once."""
+    rng = np.random.default_rng(0)
+    n, size, terms = 3, 16, 2
+    jacobian = rng.normal(size=(n, 40, size))
+    coupling = rng.normal(size=(n, 40, terms))
+    residual = rng.normal(size=(n, 40))
+    a = np.einsum("nki,nkj->nij", jacobian, jacobian)
+    b = np.einsum("nki,nkp->nip", jacobian, coupling)
+    c = np.einsum("nkp,nkq->pq", coupling, coupling)
+    g = np.einsum("nki,nk->ni", jacobian, residual)
+    h = np.einsum("nkp,nk->p", coupling, residual)
+    whole = np.zeros((n * size + terms, n * size + terms))
+    for i in range(n):
+        cell = slice(i * size, (i + 1) * size)
+        whole[cell, cell], whole[cell, n * size :], whole[n * size :, cell] = a[i], b[i], b[i].T
+    whole[n * size :, n * size :] = c
+    damping = 0.1
+    damped = whole + damping * np.diag(np.diag(whole))
+    expected = np.linalg.solve(damped, -np.concatenate([g.reshape(-1), h]))
+    step_states, step_theta = damped_step(a, b, g, c, h, damping)
+    np.testing.assert_allclose(np.concatenate([step_states, step_theta]), expected, rtol=1e-9, atol=1e-12)

@@ -31,7 +31,7 @@ from ..core.library import Feature
 from .observations import Observations
 from .observed import NOMINAL_STATE, PRIOR_STD, PROCESS_STD
 
-__all__ = ["ALUMINA_GRID", "ShootingFit", "segment_starts", "shooting_fit"]
+__all__ = ["ALUMINA_GRID", "ShootingFit", "damped_step", "shooting_fit"]
 
 #: Al2O3 mass fractions tried for each segment's first state
 ALUMINA_GRID = (0.022, 0.026, 0.03, 0.035, 0.04, 0.05)
@@ -103,7 +103,7 @@ class _Segments:
         return np.where(self.sampled, (out - np.nan_to_num(self.y)) / self.obs.noise, 0.0)
 
 
-def segment_starts(segments: _Segments, theta: np.ndarray) -> np.ndarray:
+def _segment_starts(segments: _Segments, theta: np.ndarray) -> np.ndarray:
     """Each segment's first state (R, 8) from the data alone (see the module's docstring)."""
     obs, n, count, steps = segments.obs, segments.n, segments.count, segments.steps
     at = np.arange(count) * steps
@@ -147,7 +147,7 @@ def shooting_fit(
     from (another fit's, on the same record and segments), else read from the data."""
     segments = _Segments(model, hypothesis, features, obs, max(1, round(segment_s / obs.dt)))
     theta = np.zeros(len(features)) if theta is None else np.asarray(theta, dtype=float)
-    starts = segment_starts(segments, theta) if starts is None else np.asarray(starts, dtype=float).reshape(-1, 8)
+    starts = _segment_starts(segments, theta) if starts is None else np.asarray(starts, dtype=float).reshape(-1, 8)
     fit = _Fit(segments, starts)
     fit.leave_out_lost(starts, theta)
     fit.sigma = LOOSE * fit.continuity
@@ -202,7 +202,7 @@ class _Fit:
         for done in range(1, iterations + 1):
             normal = self.normal_equations(res, hold_theta)
             while True:
-                step_z, step_t = _solve(*normal, self.damping)
+                step_z, step_t = damped_step(*normal, self.damping)
                 trial_z = starts + (step_z.reshape(-1, 8) * PRIOR_STD)
                 trial_t = theta + step_t
                 out, ends, trial_res, cost = self.evaluate(trial_z, trial_t)
@@ -265,7 +265,7 @@ class _Fit:
         return a, b, g, c, h
 
 
-def _solve(a, b, g, c, h, damping):
+def damped_step(a, b, g, c, h, damping):
     """The damped Gauss-Newton step (states (n, S8), theta (P,)): each cell's states eliminated."""
     a = a + damping * np.einsum("nii->ni", a)[:, :, None] * np.eye(a.shape[1])
     c = c + damping * np.diag(np.diag(c))
