@@ -26,9 +26,12 @@ from costa.discover.sparse.search import discover_round, fit_outcome
 from costa.observe import observe
 from costa.physics import true_model
 from costa.plots import plot_discovery
+from costa.sensors import declared_noise
 from costa.simulate import SimulationSettings, simulate_set
 
 REDUCED = {"trajectories": 6, "held_out_trajectories": 3, "bootstrap": 100}
+#: the declared noise of the plant sensors' channels sampled too sparsely to estimate it
+PLANT_NOISE = declared_noise(load_config()["discovery"]["sensor_sets"], "plant")
 
 
 def _reduced(default_config, steps: int = 1000) -> dict:
@@ -224,7 +227,7 @@ def test_a_pot_lines_first_state_is_searched_where_one_voltage_cannot_place_it(d
     config = copy.deepcopy(default_config)
     config["discovery"]["sensor_sets"]["plant"].update(hours=12, trajectories=4, held_out_trajectories=1)
     train, _ = case_tables(config, "no_effect", "plant")
-    obs = observations(train, {"x6": 1.5, "c3": 0.002, "x5": 15.0}, "plant")
+    obs = observations(train, PLANT_NOISE, "plant")
     model = starting_model(config, "full")
     nominal = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward=False)
     assert not np.isfinite(nominal.log_likelihood).all()
@@ -245,7 +248,7 @@ def test_the_start_search_spans_the_first_hand_samples_so_a_right_models_filter_
     cell 10's was lost at 1.6 h.  Searched over the first 8 h, which hold the first AlF3 and metal
     samples, with three bath masses, both hold, as every other cell does."""
     train, _ = case_tables(copy.deepcopy(default_config), "top_heat_loss", "plant")
-    obs = observations(train, {"x6": 1.5, "c3": 0.002, "x5": 15.0}, "plant").subset([0, 10])
+    obs = observations(train, PLANT_NOISE, "plant").subset([0, 10])
     full = starting_model(default_config, "full")
     true, _ = CASES["top_heat_loss"].models(full)
     obs = obs.with_start(true)
@@ -260,7 +263,7 @@ def test_each_model_is_scored_from_the_start_it_searches_itself(default_config):
     model's filter from there misses the hand samples by tens of sigma; searched under the true
     model, its filter holds on both cells as it does on data it made."""
     train, _ = case_tables(copy.deepcopy(default_config), "paper_liquidus", "plant")
-    obs = observations(train, {"x6": 1.5, "c3": 0.002, "x5": 15.0}, "plant").subset([0, 1])
+    obs = observations(train, PLANT_NOISE, "plant").subset([0, 1])
     true, ablated = CASES["paper_liquidus"].models(starting_model(default_config, "full"))
     scored = {}
     for name, placed in (("ablated", obs.with_start(ablated)), ("own", obs.with_start(ablated).searched_again(true))):
@@ -282,7 +285,7 @@ def test_the_gaps_rollouts_start_from_the_first_samples_only(default_config):
     config = copy.deepcopy(default_config)
     config["discovery"]["sensor_sets"]["plant"].update(hours=12, trajectories=2, held_out_trajectories=1)
     train, _ = case_tables(config, "no_effect", "plant")
-    obs = observations(train, {"x6": 1.5, "c3": 0.002, "x5": 15.0}, "plant")
+    obs = observations(train, PLANT_NOISE, "plant")
     model = starting_model(config, "full")
     start_steps, steps = 360, obs.y.shape[1]
     settings = EvaluationSettings({"short": (0, start_steps), "long": (steps // 2, steps)}, {"short": start_steps})
@@ -360,7 +363,7 @@ def test_a_pot_line_record_too_short_to_test_after_the_filter_settles_is_refused
             starting_model(config, "full"),
             "pot",
             "pot.csv",
-            {"x6": 1.5, "c3": 0.002, "x5": 15, "m_tap": 1.0},
+            PLANT_NOISE,
         )
 
 
