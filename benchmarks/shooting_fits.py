@@ -8,7 +8,7 @@ from the data alone, in one process and one thread, and prints the coefficients,
 cost (sum of squared residuals in noise stds: lower is likelier, the same count of
 terms in every row of a case), each channel's mean square residual and the seconds.
 
-    python benchmarks/shooting_fits.py [--cases conductivity_alf3 tapping_shortfall] [--cells 4]
+    python benchmarks/shooting_fits.py [--cases conductivity_alf3 tapping_shortfall] [--cells 4] [--hours 48]
 """
 
 from __future__ import annotations
@@ -44,10 +44,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cases", nargs="+", default=list(FITS), choices=list(FITS))
     parser.add_argument("--cells", type=int, default=4)
+    parser.add_argument("--hours", type=float, default=48.0, help="each cell's record [h]")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
     config = load_config("config/sensors.yaml")
+    config["discovery"]["sensor_sets"]["plant"]["hours"] = args.hours
     declared = declared_noise(config["discovery"]["sensor_sets"], "plant")
     for case in args.cases:
         train, _ = case_tables(config, case, "plant")

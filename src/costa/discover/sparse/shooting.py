@@ -110,11 +110,17 @@ def _segment_starts(segments: _Segments, theta: np.ndarray) -> np.ndarray:
     start = np.tile(NOMINAL_STATE, (n, count, 1))
 
     def sampled(name: str, default: float) -> np.ndarray:
+        """The channel interpolated to each segment's first step; ``default`` for a cell it never samples."""
         if name not in obs.channels:
             return np.full((n, count), default)
         values = obs.y[..., obs.channels.index(name)]
         k = np.arange(values.shape[1])
-        return np.array([np.interp(at, k[np.isfinite(v)], v[np.isfinite(v)]) for v in values])
+        return np.array(
+            [
+                np.interp(at, k[np.isfinite(v)], v[np.isfinite(v)]) if np.isfinite(v).any() else np.full(count, default)
+                for v in values
+            ]
+        )
 
     start[..., 4], start[..., 5] = sampled("x5", NOMINAL_STATE[4]), sampled("x6", NOMINAL_STATE[5])
     alf3 = sampled("c3", 0.11)
@@ -267,8 +273,11 @@ class _Fit:
 
 def damped_step(a, b, g, c, h, damping):
     """The damped Gauss-Newton step (states (n, S8), theta (P,)): each cell's states eliminated."""
-    a = a + damping * np.einsum("nii->ni", a)[:, :, None] * np.eye(a.shape[1])
-    c = c + damping * np.diag(np.diag(c))
+    # Marquardt's scaling; a parameter nothing informs (a tap's gain on a record without taps, a
+    # segment left out) has a zero row and gradient: a unit diagonal keeps it where it is
+    diagonal, shared = np.einsum("nii->ni", a), np.diag(c)
+    a = a + (damping * diagonal + (diagonal == 0))[:, :, None] * np.eye(a.shape[1])
+    c = c + np.diag(damping * shared + (shared == 0))
     a_inv_b = np.linalg.solve(a, b)
     a_inv_g = np.linalg.solve(a, g[..., None])[..., 0]
     schur = c - np.einsum("nip,niq->pq", b, a_inv_b)
