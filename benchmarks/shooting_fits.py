@@ -8,7 +8,7 @@ from the data alone, in one process and one thread, and prints the coefficients,
 cost (sum of squared residuals in noise stds: lower is likelier, the same count of
 terms in every row of a case), each channel's mean square residual and the seconds.
 
-    python benchmarks/shooting_fits.py [--cases conductivity_alf3 tapping_shortfall] [--cells 4] [--hours 48]
+    python benchmarks/shooting_fits.py [--cases conductivity_alf3 tapping_shortfall] [--cells 4] [--hours 48] [--iterations 8 30]
 """
 
 from __future__ import annotations
@@ -45,6 +45,7 @@ def main() -> None:
     parser.add_argument("--cases", nargs="+", default=list(FITS), choices=list(FITS))
     parser.add_argument("--cells", type=int, default=4)
     parser.add_argument("--hours", type=float, default=48.0, help="each cell's record [h]")
+    parser.add_argument("--iterations", type=int, nargs=2, default=(8, 30), help="of the states, then of everything")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -62,7 +63,9 @@ def main() -> None:
         for key, names in FITS[case]:
             features = {f.name: f for f in hypotheses[key].features(rich=True)}
             started = time.perf_counter()
-            fit = shooting_fit(model, hypotheses[key], [features[name] for name in names], obs)
+            fit = shooting_fit(
+                model, hypotheses[key], [features[name] for name in names], obs, iterations=tuple(args.iterations)
+            )
             seconds = time.perf_counter() - started
             form = " + ".join(f"{theta:+.4g} {name}" for theta, name in zip(fit.theta, names, strict=True))
             chi2 = ", ".join(f"{c} {v:.2f}" for c, v in fit.chi2.items())

@@ -282,7 +282,9 @@ def check_candidate_benchmark(command, smoke_run, tmp_path):
 
 
 def check_shooting_benchmark(command, smoke_run, tmp_path):
-    result = run_command(smoke_run, f"{command} --cases tapping_shortfall --cells 1 --hours 1", timeout=600)
+    result = run_command(
+        smoke_run, f"{command} --cases tapping_shortfall --cells 1 --hours 1 --iterations 1 1", timeout=600
+    )
     assert result.returncode == 0, result.stderr[-4000:]
     assert all(key in result.stdout for key in ("input:u4", "property:current_efficiency", "cost")), result.stdout
 
