@@ -52,11 +52,11 @@ def main() -> None:
     config = load_config("config/sensors.yaml")
     config["discovery"]["sensor_sets"]["plant"]["hours"] = args.hours
     declared = declared_noise(config["discovery"]["sensor_sets"], "plant")
+    model = starting_model(config, "full")
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     for case in args.cases:
         train, _ = case_tables(config, case, "plant")
         obs = observations(train, declared, case).subset(slice(0, args.cells))
-        model = starting_model(config, "full")
-        hypotheses = {h.key: h for h in candidate_hypotheses(model)}
         print(
             f"{case}, plant record: {args.cells} cells x {obs.y.shape[1] * obs.dt / 3600:g} h, channels {obs.channels}"
         )

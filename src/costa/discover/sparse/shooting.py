@@ -142,18 +142,15 @@ def shooting_fit(
     features: Sequence[Feature],
     obs: Observations,
     segment_s: float = 3600.0,
-    theta: np.ndarray | None = None,
     iterations: tuple[int, int] = (8, 30),
-    starts: np.ndarray | None = None,
 ) -> ShootingFit:
     """``model`` corrected by ``hypothesis`` with the closed form sum_k theta_k f_k, fitted to
-    ``obs`` by multiple shooting over segments of ``segment_s`` [s]: ``iterations`` of the
-    states alone (theta held at ``theta``, default 0; the continuity :data:`LOOSE`), then of
-    the states and theta together.  ``starts`` (n, S, 8): the segments' first states to begin
-    from (another fit's, on the same record and segments), else read from the data."""
+    ``obs`` by multiple shooting over segments of ``segment_s`` [s] from theta = 0 and starts
+    read from the data: ``iterations`` of the states alone (theta held, the continuity
+    :data:`LOOSE`), then of the states and theta together."""
     segments = _Segments(model, hypothesis, features, obs, max(1, round(segment_s / obs.dt)))
-    theta = np.zeros(len(features)) if theta is None else np.asarray(theta, dtype=float)
-    starts = _segment_starts(segments, theta) if starts is None else np.asarray(starts, dtype=float).reshape(-1, 8)
+    theta = np.zeros(len(features))
+    starts = _segment_starts(segments, theta)
     fit = _Fit(segments, starts)
     fit.leave_out_lost(starts, theta)
     fit.sigma = LOOSE * fit.continuity
