@@ -31,7 +31,7 @@ from ..core.library import Feature
 from .observations import Observations
 from .observed import NOMINAL_STATE, PRIOR_STD, PROCESS_STD
 
-__all__ = ["ALUMINA_GRID", "ShootingFit", "damped_step", "shooting_fit"]
+__all__ = ["ALUMINA_GRID", "Segments", "Shooting", "ShootingFit", "damped_step", "shooting_fit"]
 
 #: Al2O3 mass fractions tried for each segment's first state
 ALUMINA_GRID = (0.022, 0.026, 0.03, 0.035, 0.04, 0.05)
@@ -62,11 +62,20 @@ class ShootingFit:
     iterations: int
 
 
-class _Segments:
-    """The record as rows (cell-major, then segment) of ``steps`` samples each, and the
-    corrected model integrated over them with its sensitivities."""
+class Segments:
+    """The record as rows (cell-major, then segment) of ``steps`` samples each, and the model
+    (corrected by ``hypothesis`` with ``features``, or as it is where None) integrated over them
+    with its sensitivities; ``step`` (P,): each coefficient's finite-difference step."""
 
-    def __init__(self, model: CellModel, hypothesis: Hypothesis, features: Sequence[Feature], obs: Observations, steps):
+    def __init__(
+        self,
+        model: CellModel,
+        hypothesis: Hypothesis | None,
+        features: Sequence[Feature],
+        obs: Observations,
+        steps: int,
+        step: np.ndarray | None = None,
+    ):
         n, samples, channels = obs.y.shape
         self.obs, self.steps, self.n = obs, steps, n
         self.count = samples // steps
@@ -75,35 +84,38 @@ class _Segments:
         self.u = obs.u[:, :used].reshape(n * self.count, steps, obs.u.shape[-1])
         self.sampled = np.isfinite(self.y)
         self.terms = len(features)
+        self.step = np.full(self.terms, COEFFICIENT_STEP) if step is None else np.asarray(step, dtype=float)
         self._theta = np.zeros((0, self.terms))
-        self.model = hypothesis.parametrised(model, features, lambda: self._theta)
+        self.model = model if hypothesis is None else hypothesis.parametrised(model, features, lambda: self._theta)
 
-    def integrate(self, starts: np.ndarray, theta: np.ndarray, directions: bool = True):
+    def integrate(self, starts: np.ndarray, theta: np.ndarray, directions: str = "all"):
         """Channels (R, D, steps, C) and end states (R, D, 8) of every row from ``starts`` (R, 8)
-        under ``theta`` (P,); D = 1 + 8 + P where ``directions`` (the finite-difference rows), else 1."""
+        under ``theta`` (P,): D = 1 + 8 + P finite-difference rows (``directions`` "all"), 1 + P
+        ("coefficients": the coefficients' rows alone) or 1 ("none")."""
         rows = len(starts)
-        size = 1 + (8 + self.terms if directions else 0)
-        x = np.repeat(starts[:, None], size, 1)
-        theta = np.repeat(np.broadcast_to(theta, (rows, self.terms))[:, None], size, 1).copy()
-        if directions:
+        moved = {"all": 8 + self.terms, "coefficients": self.terms, "none": 0}[directions]
+        x = np.repeat(starts[:, None], 1 + moved, 1)
+        theta = np.repeat(np.broadcast_to(theta, (rows, self.terms))[:, None], 1 + moved, 1).copy()
+        if directions == "all":
             x[:, 1:9] += np.diag(STATE_STEP * PRIOR_STD)
-            theta[:, 9:] += COEFFICIENT_STEP * np.eye(self.terms)
-        x = x.reshape(rows * size, 8)
-        self._theta = theta.reshape(rows * size, self.terms)
-        u = np.repeat(self.u, size, 0)
-        out = np.empty((rows * size, self.steps, self.y.shape[-1]))
+        if directions != "none":
+            theta[:, 1 + moved - self.terms :] += np.diag(self.step)
+        x = x.reshape(-1, 8)
+        self._theta = theta.reshape(len(x), self.terms)
+        u = np.repeat(self.u, 1 + moved, 0)
+        out = np.empty((len(x), self.steps, self.y.shape[-1]))
         with np.errstate(all="ignore"):
             for k in range(self.steps):
                 out[:, k] = observe(self.model, x, u[:, k], self.obs.channels)
                 x = rk4_step(self.model.rhs, x, u[:, k], self.obs.dt)
-        return out.reshape(rows, size, self.steps, -1), x.reshape(rows, size, 8)
+        return out.reshape(rows, 1 + moved, self.steps, -1), x.reshape(rows, 1 + moved, 8)
 
     def misfit(self, out: np.ndarray) -> np.ndarray:
         """Measurement residuals (R, steps, C) in noise stds; 0 where not sampled."""
         return np.where(self.sampled, (out - np.nan_to_num(self.y)) / self.obs.noise, 0.0)
 
 
-def _segment_starts(segments: _Segments, theta: np.ndarray) -> np.ndarray:
+def _segment_starts(segments: Segments, theta: np.ndarray) -> np.ndarray:
     """Each segment's first state (R, 8) from the data alone (see the module's docstring)."""
     obs, n, count, steps = segments.obs, segments.n, segments.count, segments.steps
     at = np.arange(count) * steps
@@ -131,49 +143,73 @@ def _segment_starts(segments: _Segments, theta: np.ndarray) -> np.ndarray:
     grid = grid.reshape(len(ALUMINA_GRID), n * count, 8)
     cost = np.full(grid.shape[:2], np.inf)
     for g, candidate in enumerate(grid):
-        out, _ = segments.integrate(candidate, theta, directions=False)
+        out, _ = segments.integrate(candidate, theta, "none")
         cost[g] = np.nan_to_num((segments.misfit(out[:, 0]) ** 2).sum((1, 2)), nan=np.inf)
     return grid[cost.argmin(0), np.arange(n * count)]
 
 
 def shooting_fit(
     model: CellModel,
-    hypothesis: Hypothesis,
+    hypothesis: Hypothesis | None,
     features: Sequence[Feature],
     obs: Observations,
     segment_s: float = 3600.0,
     iterations: tuple[int, int] = (8, 30),
+    starts: np.ndarray | None = None,
 ) -> ShootingFit:
-    """``model`` corrected by ``hypothesis`` with the closed form sum_k theta_k f_k, fitted to
-    ``obs`` by multiple shooting over segments of ``segment_s`` [s] from theta = 0 and starts
-    read from the data: ``iterations`` of the states alone (theta held, the continuity
-    :data:`LOOSE`), then of the states and theta together."""
-    segments = _Segments(model, hypothesis, features, obs, max(1, round(segment_s / obs.dt)))
-    theta = np.zeros(len(features))
-    starts = _segment_starts(segments, theta)
-    fit = _Fit(segments, starts)
-    fit.leave_out_lost(starts, theta)
-    fit.sigma = LOOSE * fit.continuity
-    starts, theta, held_done = fit.run(starts, theta, iterations[0], hold_theta=True)
-    fit.sigma = fit.continuity
-    starts, theta, done = fit.run(starts, theta, iterations[1], hold_theta=False)
-    residual = segments.misfit(fit.out[:, 0])[fit.active]
-    sampled = segments.sampled[fit.active]
-    chi2 = {c: float((residual[..., k] ** 2).sum() / max(1, sampled[..., k].sum())) for k, c in enumerate(obs.channels)}
-    shape = (segments.n, segments.count, 8)
-    return ShootingFit(theta, starts.reshape(shape), fit.cost, chi2, int((~fit.active).sum()), held_done + done)
+    """``model`` corrected by ``hypothesis`` (None: as it is) with the closed form sum_k theta_k f_k,
+    fitted to ``obs`` by multiple shooting over segments of ``segment_s`` [s] from theta = 0:
+    ``iterations`` of the states alone from starts read from the data (theta held, the continuity
+    :data:`LOOSE`), then of the states and theta together.  Given ``starts`` (n, S, 8) (another
+    fit's), the first stage is skipped."""
+    fit, theta = Shooting.placed(model, hypothesis, features, obs, segment_s, iterations[0], starts)
+    done = fit.run(theta, iterations[1], hold_theta=False)
+    return fit.result(done)
 
 
-class _Fit:
-    """Levenberg-Marquardt over the segment starts (scaled by :data:`PRIOR_STD`) and theta."""
+class Shooting:
+    """Levenberg-Marquardt over the segment starts (scaled by :data:`PRIOR_STD`) and theta;
+    ``starts`` (R, 8), ``theta`` (P,), and at them ``out``, ``ends`` (every direction), ``res``
+    (the residuals) and ``cost``."""
 
-    def __init__(self, segments: _Segments, starts: np.ndarray):
+    def __init__(self, segments: Segments, starts: np.ndarray):
         self.segments = segments
         self.continuity = CONTINUITY_PER_SQRT_STEP * np.sqrt(segments.steps)
         self.sigma = self.continuity
         self.prior_mean = starts.reshape(segments.n, segments.count, 8)[:, 0]
         self.active = np.ones(len(starts), dtype=bool)
         self.damping = 1e-3
+        self.starts = starts
+        self.iterations = 0
+
+    @classmethod
+    def placed(
+        cls, model, hypothesis, features, obs, segment_s, iterations, starts=None
+    ) -> tuple[Shooting, np.ndarray]:
+        """The fit of :func:`shooting_fit` after its first stage (or at ``starts`` (n, S, 8)), and theta = 0."""
+        segments = Segments(model, hypothesis, features, obs, max(1, round(segment_s / obs.dt)))
+        theta = np.zeros(len(features))
+        loose = starts is None
+        starts = _segment_starts(segments, theta) if loose else starts.reshape(-1, 8)
+        fit = cls(segments, starts)
+        fit.leave_out_lost(starts, theta)
+        if loose:
+            fit.sigma = LOOSE * fit.continuity
+            fit.iterations = fit.run(theta, iterations, hold_theta=True)
+            fit.sigma = fit.continuity
+        return fit, theta
+
+    def result(self, done: int) -> ShootingFit:
+        """The fit as it stands, after ``done`` more iterations."""
+        seg = self.segments
+        residual = seg.misfit(self.out[:, 0])[self.active]
+        sampled = seg.sampled[self.active]
+        chi2 = {
+            c: float((residual[..., k] ** 2).sum() / max(1, sampled[..., k].sum()))
+            for k, c in enumerate(seg.obs.channels)
+        }
+        starts = self.starts.reshape(seg.n, seg.count, 8)
+        return ShootingFit(self.theta, starts, self.cost, chi2, int((~self.active).sum()), self.iterations + done)
 
     def residuals(self, out, ends, starts):
         """Measurement (R, steps, C), continuity (n, S-1, 8) and first-start prior (n, 8) residuals."""
@@ -195,15 +231,16 @@ class _Fit:
 
     def leave_out_lost(self, starts, theta):
         """Leave out the segments whose integration is lost already from their first state."""
-        out, ends = self.segments.integrate(starts, theta, directions=False)
+        out, ends = self.segments.integrate(starts, theta, "none")
         self.active = np.isfinite(self.segments.misfit(out[:, 0])).all((1, 2)) & np.isfinite(ends[:, 0]).all(1)
 
-    def run(self, starts, theta, iterations, hold_theta):
-        """Up to ``iterations`` steps from ``starts``, ``theta``: (starts, theta, steps taken)."""
-        self.out, self.ends, res, self.cost = self.evaluate(starts, theta)
+    def run(self, theta, iterations, hold_theta) -> int:
+        """Up to ``iterations`` steps from :attr:`starts` and ``theta``; the steps taken."""
+        starts = self.starts
+        self.out, self.ends, self.res, self.cost = self.evaluate(starts, theta)
         done = 0
         for done in range(1, iterations + 1):
-            normal = self.normal_equations(res, hold_theta)
+            normal = self.normal_equations(*self.jacobians(self.out, self.ends), hold_theta)
             while True:
                 step_z, step_t = damped_step(*normal, self.damping)
                 trial_z = starts + (step_z.reshape(-1, 8) * PRIOR_STD)
@@ -211,29 +248,44 @@ class _Fit:
                 out, ends, trial_res, cost = self.evaluate(trial_z, trial_t)
                 if cost < self.cost:
                     improved = (self.cost - cost) / self.cost
-                    starts, theta, self.out, self.ends, res, self.cost = trial_z, trial_t, out, ends, trial_res, cost
+                    starts, theta, self.out, self.ends, self.res, self.cost = (
+                        trial_z,
+                        trial_t,
+                        out,
+                        ends,
+                        trial_res,
+                        cost,
+                    )
                     self.damping = max(self.damping / 10, 1e-7)
                     break
                 self.damping *= 10
                 if self.damping > 1e8:
-                    return starts, theta, done
+                    self.starts, self.theta = starts, theta
+                    return done
             if improved < 1e-7:
                 break
-        return starts, theta, done
+        self.starts, self.theta = starts, theta
+        return done
 
-    def normal_equations(self, res, hold_theta):
-        """Per cell: the states' block A (n, S8, S8), the states-theta block B (n, S8, P), its
-        gradient g (n, S8); and theta's C (P, P) and h (P,) (zero where theta is held)."""
+    def jacobians(self, out, ends):
+        """The measured residuals' derivatives jm (R, 8 + P, steps, C) and the segment ends' over
+        the continuity std je (R, 8 + P, 8), in the scaled starts and in theta, from the finite-
+        difference rows ``out`` (R, 1 + 8 + P, steps, C) and ``ends`` (R, 1 + 8 + P, 8)."""
         seg = self.segments
-        n, count, terms = seg.n, seg.count, seg.terms
-        measured, continuity, prior, linked = res
-        # derivatives in the scaled starts (units of PRIOR_STD) and in theta
-        scale = np.concatenate([np.full(8, 1 / STATE_STEP), np.full(terms, 1 / COEFFICIENT_STEP)])
+        scale = np.concatenate([np.full(8, 1 / STATE_STEP), 1 / seg.step])
         with np.errstate(all="ignore"):
-            jm = (self.out[:, 1:] - self.out[:, :1]) / seg.obs.noise * scale[None, :, None, None]
-            je = (self.ends[:, 1:] - self.ends[:, :1]) * scale[None, :, None] / self.sigma[None, None, :]
+            jm = (out[:, 1:] - out[:, :1]) / seg.obs.noise * scale[None, :, None, None]
+            je = (ends[:, 1:] - ends[:, :1]) * scale[None, :, None] / self.sigma[None, None, :]
         jm = np.where(seg.sampled[:, None] & self.active[:, None, None, None], np.nan_to_num(jm), 0.0)
-        je = np.nan_to_num(je)
+        return jm, np.nan_to_num(je)
+
+    def normal_equations(self, jm, je, hold_theta):
+        """Per cell: the states' block A (n, S8, S8), the states-theta block B (n, S8, P), its
+        gradient g (n, S8); and theta's C (P, P) and h (P,) (zero where theta is held), at the
+        residuals :attr:`res` with the derivatives of :meth:`jacobians`."""
+        seg = self.segments
+        n, count, terms = seg.n, seg.count, jm.shape[1] - 8
+        measured, continuity, prior, linked = self.res
         block = np.einsum("rikc,rjkc->rij", jm, jm).reshape(n, count, 8 + terms, 8 + terms)
         grad = np.einsum("rikc,rkc->ri", jm, measured).reshape(n, count, 8 + terms)
         a = np.zeros((n, count, 8, count, 8))
