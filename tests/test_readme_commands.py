@@ -289,6 +289,17 @@ def check_shooting_benchmark(command, smoke_run, tmp_path):
     assert all(key in result.stdout for key in ("input:u4", "property:current_efficiency", "cost")), result.stdout
 
 
+def check_form_screen_benchmark(command, smoke_run, tmp_path):
+    result = run_command(
+        smoke_run,
+        f"{command} --cases tapping_shortfall --cells 1 --hours 1 --refine 1 --iterations 1 1 --fit-iterations 1 "
+        "--hypotheses property:current_efficiency part:metal_production term:metal_mass",
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert all(key in result.stdout for key in ("screen of 3", "by BIC gain", "fitted, by excess")), result.stdout
+
+
 def check_measure_next_loop(command, smoke_run, tmp_path):
     """Its whole run is the shipped cases under a sensor set (tens of minutes each): here its usage, and the
     choice of the measurement it adds from a findings file."""
@@ -351,6 +362,7 @@ RUN_CHECKS = {
     "python benchmarks/train_speed.py": check_benchmark,
     "python benchmarks/candidate_scores.py": check_candidate_benchmark,
     "python benchmarks/shooting_fits.py": check_shooting_benchmark,
+    "python benchmarks/form_screen.py": check_form_screen_benchmark,
     "python benchmarks/measure_next_loop.py": check_measure_next_loop,
     "pytest -m slow": check_suite_is_collected,
     "pytest -m integration": check_suite_is_collected,

@@ -1,0 +1,105 @@
+"""Every hypothesis' closed forms screened at once by shooting, then the best fitted one at a time.
+
+For each case: the uncorrected model's states are fitted by multiple shooting on the first
+cells of its ``plant`` record, every hypothesis' closed form is scored linearised at that fit
+(:func:`costa.discover.sparse.form_screen.screen_forms`), and the ``--refine`` best by BIC gain
+and the ``--refine`` best by the channels' predicted excess are fitted nonlinearly
+(:func:`costa.discover.sparse.shooting.shooting_fit`, from the screen's starts).  Prints where
+the case's accepted hypothesis ranks at each stage, and the seconds a hypothesis costs in the
+screen against one fit of it (the ratio: how many hypotheses the screen scores in the time of
+one fit).  One process, one thread.
+
+    python benchmarks/form_screen.py [--cases tapping_shortfall alumina_feeder] [--cells 2] [--hours 48] [--refine 3]
+        [--iterations 8 30] [--fit-iterations 20] [--hypotheses input:u4 ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+from costa.config import load_config
+from costa.discover.cases.tables import case_tables
+from costa.discover.cases.unshipped import find_case
+from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.library import constant_inputs
+from costa.discover.pipeline import starting_model
+from costa.discover.sparse.form_screen import screen_forms
+from costa.discover.sparse.pipeline import observations
+from costa.discover.sparse.shooting import shooting_fit
+from costa.sensors import declared_noise
+
+
+def _excess(chi2: dict[str, float]) -> float:
+    """The channels' variance beyond noise, each channel counted once."""
+    return sum(max(v - 1.0, 0.0) for v in chi2.values())
+
+
+def _rank(keys: list[str], accepted: tuple[str, ...]) -> str:
+    return next((f"{i + 1}" for i, key in enumerate(keys) if key in accepted), "-")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--cases", nargs="+", default=["tapping_shortfall", "alumina_feeder"])
+    parser.add_argument("--cells", type=int, default=2)
+    parser.add_argument("--hours", type=float, default=48.0, help="each cell's record [h]")
+    parser.add_argument("--refine", type=int, default=3, help="forms fitted nonlinearly from each ranking")
+    parser.add_argument("--iterations", type=int, nargs=2, default=(8, 30), help="of the uncorrected model's states")
+    parser.add_argument("--fit-iterations", type=int, default=20, help="of each nonlinear fit")
+    parser.add_argument("--hypotheses", nargs="+", help="screen these alone (default: every hypothesis)")
+    args = parser.parse_args()
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+    config = load_config("config/sensors.yaml")
+    config["discovery"]["sensor_sets"]["plant"]["hours"] = args.hours
+    declared = declared_noise(config["discovery"]["sensor_sets"], "plant")
+    for name in args.cases:
+        case = find_case(name)
+        model = starting_model(config, case.starting)
+        train, _ = case_tables(config, name, "plant")
+        obs = observations(train, declared, name).subset(slice(0, args.cells))
+        hypotheses = [
+            h for h in candidate_hypotheses(model, constant_inputs(obs.u)) if h.key in (args.hypotheses or [h.key])
+        ]
+        started = time.perf_counter()
+        base, forms = screen_forms(model, hypotheses, obs, iterations=tuple(args.iterations))
+        screened = time.perf_counter() - started
+        by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
+        print(
+            f"{name} ({args.cells} cells x {obs.y.shape[1] * obs.dt / 3600:g} h; accepted {list(case.accepted)}): "
+            f"screen of {len(forms)} hypotheses {screened:.1f} s; uncorrected excess {_excess(base.chi2):.2f}; "
+            f"accepted ranks {_rank([f.hypothesis.key for f in forms], case.accepted)} by BIC gain, "
+            f"{_rank([f.hypothesis.key for f in by_excess], case.accepted)} by excess"
+        )
+        chosen = list({id(f): f for f in forms[: args.refine] + by_excess[: args.refine] if f.features}.values())
+        penalty = np.log(int(np.isfinite(obs.y).sum()))
+        fitted, seconds = [], []
+        for form in chosen:
+            started = time.perf_counter()
+            fit = shooting_fit(
+                model,
+                form.hypothesis,
+                list(form.features),
+                obs,
+                iterations=(0, args.fit_iterations),
+                starts=base.starts,
+            )
+            seconds.append(time.perf_counter() - started)
+            gain = base.cost - fit.cost - len(form.features) * penalty
+            fitted.append((round(_excess(fit.chi2), 1), -gain, form.hypothesis.key))
+            terms = " + ".join(f"{t:+.4g} {f.name}" for t, f in zip(fit.theta, form.features, strict=True))
+            chi2 = ", ".join(f"{c} {v:.2f}" for c, v in fit.chi2.items())
+            print(f"  {form.hypothesis.key:36s} {terms:60s} BIC gain {gain:10.0f}  {chi2}  {seconds[-1]:5.1f} s")
+        if fitted:
+            order = [key for *_, key in sorted(fitted)]
+            print(f"  fitted, by excess then BIC gain: {order}; accepted ranks {_rank(order, case.accepted)}")
+            print(f"  one fit {np.mean(seconds):.1f} s, a hypothesis in the screen {screened / len(forms):.2f} s: "
+                  f"{np.mean(seconds) * len(forms) / screened:.1f}x")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
