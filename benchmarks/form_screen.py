@@ -4,13 +4,14 @@ For each case: the uncorrected model's states are fitted by multiple shooting on
 cells of its ``plant`` record, every hypothesis' closed form is scored linearised at that fit
 (:func:`costa.discover.sparse.form_screen.screen_forms`), and the ``--refine`` best by BIC gain
 and the ``--refine`` best by the channels' predicted excess are fitted nonlinearly
-(:func:`costa.discover.sparse.shooting.shooting_fit`, from the screen's starts).  Prints where
-the case's accepted hypothesis ranks at each stage, and the seconds a hypothesis costs in the
-screen against one fit of it (the ratio: how many hypotheses the screen scores in the time of
-one fit).  One process, one thread.
+(:func:`costa.discover.sparse.form_screen.grown_form`: from starts read from the data, each
+grown ``--grow`` times around its own fit).  Prints where the case's accepted hypothesis
+ranks at each stage, and the seconds a hypothesis costs in the screen against one fit of it
+(the ratio: how many hypotheses the screen scores in the time of one fit).  One process,
+one thread.
 
     python benchmarks/form_screen.py [--cases tapping_shortfall alumina_feeder] [--cells 2] [--hours 48] [--refine 3]
-        [--iterations 8 30] [--fit-iterations 20] [--hypotheses input:u4 ...]
+        [--iterations 8 30] [--fit-iterations 8 30] [--hypotheses input:u4 ...] [--grow 0]
 """
 
 from __future__ import annotations
@@ -27,9 +28,8 @@ from costa.discover.cases.unshipped import find_case
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.library import constant_inputs
 from costa.discover.pipeline import starting_model
-from costa.discover.sparse.form_screen import screen_forms
+from costa.discover.sparse.form_screen import grown_form, screen_forms
 from costa.discover.sparse.pipeline import observations
-from costa.discover.sparse.shooting import shooting_fit
 from costa.sensors import declared_noise
 
 
@@ -49,8 +49,9 @@ def main() -> None:
     parser.add_argument("--hours", type=float, default=48.0, help="each cell's record [h]")
     parser.add_argument("--refine", type=int, default=3, help="forms fitted nonlinearly from each ranking")
     parser.add_argument("--iterations", type=int, nargs=2, default=(8, 30), help="of the uncorrected model's states")
-    parser.add_argument("--fit-iterations", type=int, default=20, help="of each nonlinear fit")
+    parser.add_argument("--fit-iterations", type=int, nargs=2, default=(8, 30), help="of each nonlinear fit")
     parser.add_argument("--hypotheses", nargs="+", help="screen these alone (default: every hypothesis)")
+    parser.add_argument("--grow", type=int, default=0, help="rounds each fitted form may grow around its own fit")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -80,18 +81,13 @@ def main() -> None:
         fitted, seconds = [], []
         for form in chosen:
             started = time.perf_counter()
-            fit = shooting_fit(
-                model,
-                form.hypothesis,
-                list(form.features),
-                obs,
-                iterations=(0, args.fit_iterations),
-                starts=base.starts,
+            features, fit = grown_form(
+                model, form.hypothesis, form.features, obs, rounds=args.grow, iterations=tuple(args.fit_iterations)
             )
             seconds.append(time.perf_counter() - started)
-            gain = base.cost - fit.cost - len(form.features) * penalty
+            gain = base.cost - fit.cost - len(features) * penalty
             fitted.append((round(_excess(fit.chi2), 1), -gain, form.hypothesis.key))
-            terms = " + ".join(f"{t:+.4g} {f.name}" for t, f in zip(fit.theta, form.features, strict=True))
+            terms = " + ".join(f"{t:+.4g} {f.name}" for t, f in zip(fit.theta, features, strict=True))
             chi2 = ", ".join(f"{c} {v:.2f}" for c, v in fit.chi2.items())
             print(f"  {form.hypothesis.key:36s} {terms:60s} BIC gain {gain:10.0f}  {chi2}  {seconds[-1]:5.1f} s")
         if fitted:

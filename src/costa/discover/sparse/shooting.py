@@ -156,13 +156,14 @@ def shooting_fit(
     segment_s: float = 3600.0,
     iterations: tuple[int, int] = (8, 30),
     starts: np.ndarray | None = None,
+    theta: np.ndarray | None = None,
 ) -> ShootingFit:
     """``model`` corrected by ``hypothesis`` (None: as it is) with the closed form sum_k theta_k f_k,
-    fitted to ``obs`` by multiple shooting over segments of ``segment_s`` [s] from theta = 0:
-    ``iterations`` of the states alone from starts read from the data (theta held, the continuity
-    :data:`LOOSE`), then of the states and theta together.  Given ``starts`` (n, S, 8) (another
-    fit's), the first stage is skipped."""
-    fit, theta = Shooting.placed(model, hypothesis, features, obs, segment_s, iterations[0], starts)
+    fitted to ``obs`` by multiple shooting over segments of ``segment_s`` [s] from ``theta`` (P,)
+    (default 0): ``iterations`` of the states alone from starts read from the data (theta held,
+    the continuity :data:`LOOSE`), then of the states and theta together.  Given ``starts``
+    (n, S, 8) (another fit's), the first stage is skipped."""
+    fit, theta = Shooting.placed(model, hypothesis, features, obs, segment_s, iterations[0], starts, theta)
     done = fit.run(theta, iterations[1], hold_theta=False)
     return fit.result(done)
 
@@ -184,11 +185,11 @@ class Shooting:
 
     @classmethod
     def placed(
-        cls, model, hypothesis, features, obs, segment_s, iterations, starts=None
+        cls, model, hypothesis, features, obs, segment_s, iterations, starts=None, theta=None
     ) -> tuple[Shooting, np.ndarray]:
-        """The fit of :func:`shooting_fit` after its first stage (or at ``starts`` (n, S, 8)), and theta = 0."""
+        """The fit of :func:`shooting_fit` after its first stage (or at ``starts`` (n, S, 8)), and theta (0 if None)."""
         segments = Segments(model, hypothesis, features, obs, max(1, round(segment_s / obs.dt)))
-        theta = np.zeros(len(features))
+        theta = np.zeros(len(features)) if theta is None else np.asarray(theta, dtype=float)
         loose = starts is None
         starts = _segment_starts(segments, theta) if loose else starts.reshape(-1, 8)
         fit = cls(segments, starts)
