@@ -170,13 +170,11 @@ def screen_forms(
         change = np.einsum("rikc,ri->rkc", jm[:, :8], states_step) + np.einsum(
             "rpkc,p->rkc", jm[:, [8 + k for k in chosen]], theta * step[chosen]
         )
-        measured = base.res[0] + change
-        count = np.maximum(seg.sampled[base.active].sum((0, 1)), 1)
-        chi2 = dict(zip(obs.channels, (measured[base.active] ** 2).sum((0, 1)) / count, strict=True))
+        chi2 = base.channel_chi2(base.res[0] + change)
         forms.append(
             ScreenedForm(
                 h, tuple(features[k] for k in chosen), theta * step[chosen], gain, gain - len(chosen) * penalty,
-                {k: float(v) for k, v in chi2.items()},
+                chi2,
             )
         )  # fmt: skip
     return base.result(done), sorted(forms, key=lambda f: -f.bic_gain)
