@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from costa.discover.sparse.form_screen import states_eliminated
+from costa.discover.sparse.form_screen import _forward, states_eliminated
 
 
 def test_the_reduced_gradient_gives_what_the_coefficients_add_to_the_whole_least_squares_fit():
@@ -30,3 +30,19 @@ def test_the_reduced_gradient_gives_what_the_coefficients_add_to_the_whole_least
         whole[i * rows : (i + 1) * rows, n * size :] = k[i]
     added = reduction(whole) - reduction(whole[:, : n * size])
     np.testing.assert_allclose(reduced @ np.linalg.solve(schur, reduced), added, rtol=1e-9)
+
+
+def test_forward_selection_finds_the_planted_terms_and_stops_where_a_term_no_longer_pays_its_bic():
+    """Residuals r = -(2 k_1 - 3 k_4) + unit noise over 2000 samples and six candidate columns, two of
+    them nearly copies of another: the terms chosen are the planted two, and no column of noise
+    pays log(2000) of cost (the reduction of each added column is chi2(1): 1 on average)."""
+    rng = np.random.default_rng(3)
+    samples = 2000
+    k = rng.normal(size=(samples, 6))
+    k[:, 2] = k[:, 1] + 1e-6 * rng.normal(size=samples)  # a near copy of column 1
+    k[:, 5] = k[:, 4] + 1e-6 * rng.normal(size=samples)  # and of column 4
+    r = -(2 * k[:, 1] - 3 * k[:, 4]) + rng.normal(size=samples)
+    chosen, reduction = _forward(k.T @ k, k.T @ r, np.log(samples), max_terms=4)
+    assert sorted({c if c not in (2, 5) else c - 1 for c in chosen}) == [1, 4] and len(chosen) == 2
+    expected = r @ k[:, chosen] @ np.linalg.solve(k[:, chosen].T @ k[:, chosen], k[:, chosen].T @ r)
+    np.testing.assert_allclose(reduction, expected, rtol=1e-9)
