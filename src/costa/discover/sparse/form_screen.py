@@ -24,7 +24,7 @@ from ..core.hypotheses import Hypothesis
 from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
 from .observations import Observations
 from .observed import PRIOR_STD
-from .shooting import Segments, Shooting, ShootingFit, channel_excess, shooting_fit
+from .shooting import Segments, Shooting, ShootingFit, shooting_fit
 
 __all__ = ["ScreenedForm", "grown_form", "richer_terms", "screen_forms", "screen_terms", "states_eliminated"]
 
@@ -41,7 +41,7 @@ class ScreenedForm:
     """A hypothesis' closed form from the screen: ``features`` chosen, ``theta`` their coefficients
     after the predicted step, ``gain`` the predicted cost decrease (twice the log-likelihood gain)
     and ``bic_gain`` that less log(samples) a term; ``chi2`` each channel's predicted mean squared
-    residual in noise variances, over ``samples``."""
+    residual in noise variances."""
 
     hypothesis: Hypothesis
     features: tuple[Feature, ...]
@@ -49,12 +49,11 @@ class ScreenedForm:
     gain: float
     bic_gain: float
     chi2: dict[str, float]
-    samples: dict[str, int]
 
     @property
     def excess(self) -> float:
-        """The channels' predicted variance beyond noise (:func:`.shooting.channel_excess`)."""
-        return channel_excess(self.chi2, self.samples)
+        """The channels' predicted variance beyond noise, each channel counted once."""
+        return sum(max(v - 1.0, 0.0) for v in self.chi2.values())
 
 
 def screen_terms(hypothesis: Hypothesis) -> list[Feature]:
@@ -171,11 +170,11 @@ def screen_forms(
         change = np.einsum("rikc,ri->rkc", jm[:, :8], states_step) + np.einsum(
             "rpkc,p->rkc", jm[:, [8 + k for k in chosen]], theta * step[chosen]
         )
-        chi2, samples = base.channel_chi2(base.res[0] + change)
+        chi2 = base.channel_chi2(base.res[0] + change)
         forms.append(
             ScreenedForm(
                 h, tuple(features[k] for k in chosen), theta * step[chosen], gain, gain - len(chosen) * penalty,
-                chi2, samples,
+                chi2,
             )
         )  # fmt: skip
     return base.result(done), sorted(forms, key=lambda f: -f.bic_gain)

@@ -31,7 +31,7 @@ from ..core.library import Feature
 from .observations import Observations
 from .observed import NOMINAL_STATE, PRIOR_STD, PROCESS_STD
 
-__all__ = ["ALUMINA_GRID", "Segments", "Shooting", "ShootingFit", "channel_excess", "damped_step", "shooting_fit"]
+__all__ = ["ALUMINA_GRID", "Segments", "Shooting", "ShootingFit", "damped_step", "shooting_fit"]
 
 #: Al2O3 mass fractions tried for each segment's first state
 ALUMINA_GRID = (0.022, 0.026, 0.03, 0.035, 0.04, 0.05)
@@ -52,8 +52,8 @@ class ShootingFit:
     """The fitted coefficients (P,), segment starts (n, S, 8), the cost (the sum of squared
     residuals, each in noise stds; minus twice a log-likelihood up to a constant), each
     channel's mean squared residual over its samples after each cell's first segment
-    (:meth:`Shooting.channel_chi2`), the segments left out (lost already at the start), the
-    Levenberg-Marquardt iterations taken and the samples behind each channel's mean square."""
+    (:meth:`Shooting.channel_chi2`), the segments left out (lost already at the start) and the
+    Levenberg-Marquardt iterations taken."""
 
     theta: np.ndarray
     starts: np.ndarray
@@ -61,25 +61,6 @@ class ShootingFit:
     chi2: dict[str, float]
     lost: int
     iterations: int
-    samples: dict[str, int]  # each channel's samples behind its chi2
-
-    @property
-    def excess(self) -> float:
-        """The channels' variance beyond noise (:func:`channel_excess`)."""
-        return channel_excess(self.chi2, self.samples)
-
-
-#: a channel's mean square counts as beyond noise where it exceeds 1 by this many of its sampling
-#: stds, sqrt(2 / samples): three, as a test at 0.3 % (96 hourly bath temperatures: 1.43)
-SAMPLING_STDS = 3.0
-
-
-def channel_excess(chi2: dict[str, float], samples: dict[str, int]) -> float:
-    """The channels' mean squared residuals (in noise variances) beyond 1 and beyond what sampling
-    alone leaves (:data:`SAMPLING_STDS`), summed with each channel counted once: the voltage's
-    34 000 samples weigh no more than the six metal heights, and two fits that both bring every
-    channel to its noise tie at 0."""
-    return sum(max(v - 1.0 - SAMPLING_STDS * np.sqrt(2.0 / max(samples[c], 1)), 0.0) for c, v in chi2.items())
 
 
 class Segments:
@@ -224,11 +205,10 @@ class Shooting:
         """The fit as it stands, after ``done`` more iterations."""
         seg = self.segments
         starts = self.starts.reshape(seg.n, seg.count, 8)
-        chi2, samples = self.channel_chi2(seg.misfit(self.out[:, 0]))
-        lost = int((~self.active).sum())
-        return ShootingFit(self.theta, starts, self.cost, chi2, lost, self.iterations + done, samples)
+        chi2 = self.channel_chi2(seg.misfit(self.out[:, 0]))
+        return ShootingFit(self.theta, starts, self.cost, chi2, int((~self.active).sum()), self.iterations + done)
 
-    def channel_chi2(self, residual: np.ndarray) -> tuple[dict[str, float], dict[str, int]]:
+    def channel_chi2(self, residual: np.ndarray) -> dict[str, float]:
         """Each channel's mean squared ``residual`` (R, steps, C) over its samples, leaving out each
         cell's first segment where it has more: there only the prior places the unmeasured states
         (the ledge, its and the wall's temperatures), as the filter's tests leave out its settling
@@ -239,9 +219,8 @@ class Shooting:
         tested[:, 0] &= seg.count == 1
         tested = tested.reshape(-1)
         sums = (residual[tested] ** 2).sum((0, 1))
-        counts = seg.sampled[tested].sum((0, 1))
-        chi2 = {c: float(v) for c, v in zip(seg.obs.channels, sums / np.maximum(counts, 1), strict=True)}
-        return chi2, {c: int(k) for c, k in zip(seg.obs.channels, counts, strict=True)}
+        counts = np.maximum(seg.sampled[tested].sum((0, 1)), 1)
+        return {c: float(v) for c, v in zip(seg.obs.channels, sums / counts, strict=True)}
 
     def residuals(self, out, ends, starts):
         """Measurement (R, steps, C), continuity (n, S-1, 8) and first-start prior (n, 8) residuals."""
