@@ -80,7 +80,9 @@ def richer_terms(hypothesis: Hypothesis) -> list[Feature]:
 
 
 def _steps(model: CellModel, hypothesis: Hypothesis, features: Sequence[Feature], x: np.ndarray, u: np.ndarray):
-    """Each term's finite-difference step (P,) (:data:`PROBE`), from the states x (N, 8) and inputs u (N, 5)."""
+    """Each term's finite-difference step (P,) (:data:`PROBE`), from the states x (N, 8) and inputs u (N, 5)
+    (the segments' first states and inputs).  A term that is zero there (a dose or tap, a few steps an
+    hour) gets a unit step: its correction is linear in the coefficient, so any step above rounding serves."""
     with np.errstate(all="ignore"):
         rates = (
             hypothesis.sensitivity(model, x, u)[:, None, :]
