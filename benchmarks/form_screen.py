@@ -37,11 +37,6 @@ from costa.physics import model_from_config
 from costa.sensors import declared_noise
 
 
-def _excess(chi2: dict[str, float]) -> float:
-    """The channels' variance beyond noise, each channel counted once."""
-    return sum(max(v - 1.0, 0.0) for v in chi2.values())
-
-
 def _rank(keys: list[str], accepted: tuple[str, ...]) -> str:
     return next((f"{i + 1}" for i, key in enumerate(keys) if key in accepted), "-")
 
@@ -89,7 +84,7 @@ def main() -> None:
         by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
         print(
             f"{name} ({args.cells} cells x {obs.y.shape[1] * obs.dt / 3600:g} h; accepted {list(case.accepted)}): "
-            f"screen of {len(forms)} hypotheses {screened:.1f} s; uncorrected excess {_excess(base.chi2):.2f}; "
+            f"screen of {len(forms)} hypotheses {screened:.1f} s; uncorrected excess {base.excess:.2f}; "
             f"accepted ranks {_rank([f.hypothesis.key for f in forms], case.accepted)} by BIC gain, "
             f"{_rank([f.hypothesis.key for f in by_excess], case.accepted)} by excess"
         )
@@ -103,7 +98,7 @@ def main() -> None:
             )
             seconds.append(time.perf_counter() - started)
             gain = base.cost - fit.cost - len(features) * penalty
-            fitted.append((round(_excess(fit.chi2), 1), -gain, form.hypothesis.key))
+            fitted.append((round(fit.excess, 1), -gain, form.hypothesis.key))
             terms = " + ".join(f"{t:+.4g} {f.name}" for t, f in zip(fit.theta, features, strict=True))
             chi2 = ", ".join(f"{c} {v:.2f}" for c, v in fit.chi2.items())
             print(f"  {form.hypothesis.key:36s} {terms:60s} BIC gain {gain:10.0f}  {chi2}  {seconds[-1]:5.1f} s")

@@ -24,7 +24,7 @@ from ..core.hypotheses import Hypothesis
 from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
 from .observations import Observations
 from .observed import PRIOR_STD
-from .shooting import Segments, Shooting, ShootingFit, shooting_fit
+from .shooting import Segments, Shooting, ShootingFit, channel_excess, shooting_fit
 
 __all__ = ["ScreenedForm", "grown_form", "richer_terms", "screen_forms", "screen_terms", "states_eliminated"]
 
@@ -52,8 +52,8 @@ class ScreenedForm:
 
     @property
     def excess(self) -> float:
-        """The channels' predicted variance beyond noise, each channel counted once."""
-        return sum(max(v - 1.0, 0.0) for v in self.chi2.values())
+        """The channels' predicted variance beyond noise (:func:`.shooting.channel_excess`)."""
+        return channel_excess(self.chi2)
 
 
 def screen_terms(hypothesis: Hypothesis) -> list[Feature]:

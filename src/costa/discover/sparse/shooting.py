@@ -31,7 +31,7 @@ from ..core.library import Feature
 from .observations import Observations
 from .observed import NOMINAL_STATE, PRIOR_STD, PROCESS_STD
 
-__all__ = ["ALUMINA_GRID", "Segments", "Shooting", "ShootingFit", "damped_step", "shooting_fit"]
+__all__ = ["ALUMINA_GRID", "Segments", "Shooting", "ShootingFit", "channel_excess", "damped_step", "shooting_fit"]
 
 #: Al2O3 mass fractions tried for each segment's first state
 ALUMINA_GRID = (0.022, 0.026, 0.03, 0.035, 0.04, 0.05)
@@ -61,6 +61,17 @@ class ShootingFit:
     chi2: dict[str, float]
     lost: int
     iterations: int
+
+    @property
+    def excess(self) -> float:
+        """The channels' variance beyond noise (:func:`channel_excess`)."""
+        return channel_excess(self.chi2)
+
+
+def channel_excess(chi2: dict[str, float]) -> float:
+    """The channels' mean squared residuals (noise variances) beyond 1, each channel counted once:
+    the voltage's 34 000 samples weigh no more than the six metal heights."""
+    return sum(max(v - 1.0, 0.0) for v in chi2.values())
 
 
 class Segments:
