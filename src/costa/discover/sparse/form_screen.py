@@ -142,11 +142,12 @@ def screen_forms(
     terms: Callable[[Hypothesis], list[Feature]] = screen_terms,
     starts: np.ndarray | None = None,
 ) -> tuple[ShootingFit, list[ScreenedForm]]:
-    """The model's shooting fit (from ``starts`` (n, S, 8) where given: another fit's of the same
-    model), and each hypothesis' closed form (at most ``max_terms`` of its ``terms``) with its
-    predicted gain and channels, best BIC gain first."""
-    base, _ = Shooting.placed(model, None, [], obs, segment_s, iterations[0], starts)
-    done = base.run(np.zeros(0), iterations[1], hold_theta=True)
+    """The model's shooting fit (:func:`.shooting.shooting_fit`; from ``starts`` (n, S, 8) where given:
+    another fit's of the same model), and each hypothesis' closed form (at most ``max_terms`` of its
+    ``terms``) with its predicted gain and channels, best BIC gain first."""
+    fitted = shooting_fit(model, None, [], obs, segment_s, iterations, starts)
+    base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts)
+    base.run(np.zeros(0), 0, hold_theta=True)
     seg = base.segments
     rows = base.starts
     u0 = seg.u[:, 0]
@@ -179,7 +180,7 @@ def screen_forms(
                 chi2,
             )
         )  # fmt: skip
-    return base.result(done), sorted(forms, key=lambda f: -f.bic_gain)
+    return fitted, sorted(forms, key=lambda f: -f.bic_gain)
 
 
 def grown_form(
