@@ -4,9 +4,10 @@ For each case: the uncorrected model's states are fitted by multiple shooting on
 cells of its ``plant`` record, every hypothesis' closed form is scored linearised at that fit
 (:func:`costa.discover.sparse.form_screen.screen_forms`), and the ``--refine`` best by BIC gain
 and the ``--refine`` best by the channels' predicted excess are fitted nonlinearly
-(:func:`costa.discover.sparse.form_screen.grown_form`: from starts read from the data, each
-grown ``--grow`` times around its own fit).  Prints where the case's accepted hypothesis
-ranks at each stage, and the seconds a hypothesis costs in the screen against one fit of it
+(:func:`costa.discover.sparse.form_screen.grown_form`, each grown ``--grow`` times around its
+own fit), then ranked (:func:`costa.discover.sparse.form_screen.ranked_fits`).  Prints where the
+case's accepted hypothesis ranks at each stage, whether the first fit is told apart from its
+rivals, and the seconds a hypothesis costs in the screen against one fit of it
 (the ratio: how many hypotheses the screen scores in the time of one fit).  One process,
 one thread.  ``--true-model`` fits the case's true model instead (its states alone): where
 that does not reach the noise, the fits measure the shooting fit's failure, not the hypotheses.
@@ -30,7 +31,7 @@ from costa.discover.cases.unshipped import find_case
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.library import constant_inputs
 from costa.discover.pipeline import starting_model
-from costa.discover.sparse.form_screen import grown_form, screen_forms
+from costa.discover.sparse.form_screen import FittedForm, grown_form, ranked_fits, screen_forms
 from costa.discover.sparse.pipeline import observations
 from costa.discover.sparse.shooting import shooting_fit
 from costa.physics import model_from_config
@@ -97,14 +98,24 @@ def main() -> None:
                 model, form.hypothesis, form.features, obs, rounds=args.grow, iterations=tuple(args.fit_iterations)
             )
             seconds.append(time.perf_counter() - started)
-            gain = base.cost - fit.cost - len(features) * penalty
-            fitted.append((round(fit.excess, 1), -gain, form.hypothesis.key))
+            fitted.append(
+                FittedForm(form.hypothesis, tuple(features), fit, base.cost - fit.cost - len(features) * penalty)
+            )
             terms = " + ".join(f"{t:+.4g} {f.name}" for t, f in zip(fit.theta, features, strict=True))
             chi2 = ", ".join(f"{c} {v:.2f}" for c, v in fit.chi2.items())
-            print(f"  {form.hypothesis.key:36s} {terms:60s} BIC gain {gain:10.0f}  {chi2}  {seconds[-1]:5.1f} s")
+            noise = "at noise" if fit.at_noise else "flagged"
+            print(f"  {form.hypothesis.key:36s} {terms:60s} BIC gain {fitted[-1].bic_gain:10.0f}  {chi2} ({noise})  "
+                  f"{seconds[-1]:5.1f} s")  # fmt: skip
         if fitted:
-            order = [key for *_, key in sorted(fitted)]
-            print(f"  fitted, by excess then BIC gain: {order}; accepted ranks {_rank(order, case.accepted)}")
+            order, undecided = ranked_fits(fitted)
+            keys = [f.hypothesis.key for f in order]
+            print(f"  ranked: {keys}; accepted ranks {_rank(keys, case.accepted)}")
+            if not order:
+                print("  verdict: no fit pays its terms")
+            elif len(undecided) == 1:
+                print(f"  verdict: told apart: {keys[0]}{' (right)' if keys[0] in case.accepted else ''}")
+            else:
+                print(f"  verdict: undecided among {[f.hypothesis.key for f in undecided]}")
             print(f"  one fit {np.mean(seconds):.1f} s, a hypothesis in the screen {screened / len(forms):.2f} s: "
                   f"{np.mean(seconds) * len(forms) / screened:.1f}x")  # fmt: skip
 

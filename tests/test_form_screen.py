@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
-from costa.discover.sparse.form_screen import _forward, states_eliminated
+from costa.discover.sparse.form_screen import FittedForm, _forward, ranked_fits, states_eliminated
+from costa.discover.sparse.shooting import ShootingFit
 
 
 def test_the_reduced_gradient_gives_what_the_coefficients_add_to_the_whole_least_squares_fit():
@@ -46,3 +49,27 @@ def test_forward_selection_finds_the_planted_terms_and_stops_where_a_term_no_lon
     assert sorted({c if c not in (2, 5) else c - 1 for c in chosen}) == [1, 4] and len(chosen) == 2
     expected = r @ k[:, chosen] @ np.linalg.solve(k[:, chosen].T @ k[:, chosen], k[:, chosen].T @ r)
     np.testing.assert_allclose(reduction, expected, rtol=1e-9)
+
+
+def _fitted(key: str, bic_gain: float, chi2: dict[str, float], samples: int = 100) -> FittedForm:
+    fit = ShootingFit(np.zeros(1), np.zeros((1, 1, 8)), 0.0, chi2, dict.fromkeys(chi2, samples), 0, 1)
+    return FittedForm(SimpleNamespace(key=key), (), fit, bic_gain)
+
+
+def test_fits_at_their_noise_are_ranked_by_bic_and_close_rivals_stay_undecided():
+    """Among fits whose every channel is within 3 sampling stds of its noise (100 samples: 1.42), the
+    BIC decides, not the noise-level excess; a rival within 10 of the first's BIC gain is not told
+    apart; a fit that pays nothing (BIC gain <= 0) does not rank; a flagged fit comes after."""
+    right = _fitted("right", 500.0, {"x6": 1.30, "c3": 0.9})
+    close = _fitted("close", 495.0, {"x6": 0.95, "c3": 0.8})
+    far = _fitted("far", 300.0, {"x6": 1.0, "c3": 0.7})
+    flagged = _fitted("flagged", 9000.0, {"x6": 1.50, "c3": 0.9})
+    free = _fitted("free", 0.0, {"x6": 0.9, "c3": 0.9})
+    order, undecided = ranked_fits([far, flagged, close, free, right])
+    assert [f.hypothesis.key for f in order] == ["right", "close", "far", "flagged"]
+    assert [f.hypothesis.key for f in undecided] == ["right", "close"]
+    order, undecided = ranked_fits([right, far])
+    assert undecided == [right]
+    order, undecided = ranked_fits([flagged, free])
+    assert order == undecided == [flagged]
+    assert ranked_fits([free]) == ([], [])

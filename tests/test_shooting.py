@@ -3,16 +3,20 @@
 from __future__ import annotations
 
 import copy
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from costa.discover.cases.tables import case_tables
+from costa.discover.cases.unshipped import find_case
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.pipeline import observations
-from costa.discover.sparse.shooting import damped_step, shooting_fit
-from costa.sensors import declared_noise
+from costa.discover.sparse.shooting import damped_step, filtered_starts, shooting_fit
+from costa.physics import model_from_config
+from costa.sensors import declared_noise, sensor_sets_from_config
+from costa.simulate import SimulationSettings, simulate_set
 
 
 @pytest.mark.integration
@@ -58,3 +62,25 @@ def test_eliminating_each_cells_states_solves_the_whole_normal_equations():
     expected = np.linalg.solve(damped, -np.concatenate([g.reshape(-1), h]))
     step_states, step_theta = damped_step(a, b, g, c, h, damping)
     np.testing.assert_allclose(np.concatenate([step_states, step_theta]), expected, rtol=1e-9, atol=1e-12)
+
+
+def test_the_filter_places_the_bath_mass_that_no_sensor_reads(default_config):
+    """The plant sensors read no bath mass; the data's placement assumes the nominal 14 t, and the
+    second cell of top_heat_loss's record holds 17-18 t.  The true model's smoothed states put each
+    hourly segment's bath mass, after the first hour, within 1 t of the simulated truth (within 0.3 t
+    on that cell), and its ledge within 0.6 t."""
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=6, trajectories=2, held_out_trajectories=1)
+    train, _ = case_tables(config, "top_heat_loss", "plant")
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "top_heat_loss")
+    true, _ = find_case("top_heat_loss").models(model_from_config(config["physics"])[0])
+    starts = filtered_starts(true, obs)[:, 1:]
+    plant = sensor_sets_from_config(config["discovery"]["sensor_sets"])["plant"]
+    settings = SimulationSettings.from_config(config["simulation"])
+    settings = replace(settings, steps=plant.steps(settings.dt, settings.steps), operation=plant.operation)
+    simulated, _ = simulate_set(true, settings, 2, config["seed"], 0, "discovery/top_heat_loss/train")
+    truth = simulated.x[:, :: round(3600 / obs.dt)][:, 1 : starts.shape[1] + 1]
+    bath, bath_true = starts[..., 1:4].sum(-1), truth[..., 1:4].sum(-1)
+    assert (abs(bath_true[1] - 14000.0) > 2500).all()
+    assert abs(bath - bath_true).max() < 1000 and abs(bath[1] - bath_true[1]).max() < 300
+    assert abs(starts[..., 0] - truth[..., 0]).max() < 600

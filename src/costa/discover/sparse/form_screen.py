@@ -26,11 +26,23 @@ from .observations import Observations
 from .observed import PRIOR_STD
 from .shooting import Segments, Shooting, ShootingFit, channel_excess, shooting_fit
 
-__all__ = ["ScreenedForm", "grown_form", "richer_terms", "screen_forms", "screen_terms", "states_eliminated"]
+__all__ = [
+    "FittedForm",
+    "ScreenedForm",
+    "grown_form",
+    "ranked_fits",
+    "richer_terms",
+    "screen_forms",
+    "screen_terms",
+    "states_eliminated",
+]
 
 #: a coefficient's finite-difference step moves the state it moves most by this share of its
 #: prior std over an hour: far above rounding, far below where the response bends
 PROBE = 1e-3
+#: how much more BIC gain the first fit needs than every rival to be told apart from them: 10, the
+#: "very strong" evidence of Kass and Raftery (1995) on twice the log Bayes factor
+MARGIN = 10.0
 #: a term whose pivot, given the terms already chosen, is below this share of its own
 #: information adds nothing new (it is, to rounding, a combination of those)
 COLLINEAR = 1e-8
@@ -173,7 +185,7 @@ def screen_forms(
         change = np.einsum("rikc,ri->rkc", jm[:, :8], states_step) + np.einsum(
             "rpkc,p->rkc", jm[:, [8 + k for k in chosen]], theta * step[chosen]
         )
-        chi2 = base.channel_chi2(base.res[0] + change)
+        chi2, _ = base.channel_chi2(base.res[0] + change)
         forms.append(
             ScreenedForm(
                 h, tuple(features[k] for k in chosen), theta * step[chosen], gain, gain - len(chosen) * penalty,
@@ -218,3 +230,34 @@ def grown_form(
             break
         features, fit = features + added, trial
     return features, fit
+
+
+@dataclass(frozen=True)
+class FittedForm:
+    """A hypothesis' closed form fitted nonlinearly: ``bic_gain`` is the uncorrected fit's cost less
+    this fit's, less log(samples) a term."""
+
+    hypothesis: Hypothesis
+    features: tuple[Feature, ...]
+    fit: ShootingFit
+    bic_gain: float
+
+
+def ranked_fits(fits: Sequence[FittedForm]) -> tuple[list[FittedForm], list[FittedForm]]:
+    """The fits that pay their terms (positive BIC gain), best first, and those the first is not told
+    apart from (itself included; empty where none pays).  Fits that leave every channel at its noise
+    (:attr:`.shooting.ShootingFit.at_noise`) come first, ordered by BIC gain: differences in the
+    excess there are noise.  The rest follow by their excess (to 0.1 noise variances), then BIC gain.
+    A rival at noise within :data:`MARGIN` of the first's BIC gain is not told apart; where the first
+    is not at noise, no fit is told apart from any other that pays."""
+    paying = [f for f in fits if f.bic_gain > 0]
+    order = sorted(
+        paying,
+        key=lambda f: (not f.fit.at_noise, -f.bic_gain if f.fit.at_noise else round(f.fit.excess, 1), -f.bic_gain),
+    )
+    if not order:
+        return [], []
+    first = order[0]
+    if not first.fit.at_noise:
+        return order, order
+    return order, [f for f in order if f.fit.at_noise and first.bic_gain - f.bic_gain < MARGIN]

@@ -58,6 +58,8 @@ CONTINUITY_PER_SQRT_STEP = 100 * PROCESS_STD
 #: the states are fitted first with the continuity this many times looser: far from the data, each
 #: segment then finds its own cell before the segments are tied together
 LOOSE = 10.0
+#: how many sampling stds of its mean square a channel may lie above 1 and count as at its noise
+NOISE_BAND = 3.0
 #: finite-difference steps: a state's share of its prior std, a coefficient's absolute step
 STATE_STEP, COEFFICIENT_STEP = 1e-4, 1e-4
 
@@ -67,13 +69,14 @@ class ShootingFit:
     """The fitted coefficients (P,), segment starts (n, S, 8), the cost (the sum of squared
     residuals, each in noise stds; minus twice a log-likelihood up to a constant), each
     channel's mean squared residual over its samples after each cell's first segment
-    (:meth:`Shooting.channel_chi2`), the segments left out (lost already at the start) and the
-    Levenberg-Marquardt iterations taken."""
+    (:meth:`Shooting.channel_chi2`) and its count of samples, the segments left out (lost already
+    at the start) and the Levenberg-Marquardt iterations taken."""
 
     theta: np.ndarray
     starts: np.ndarray
     cost: float
     chi2: dict[str, float]
+    samples: dict[str, int]
     lost: int
     iterations: int
 
@@ -81,6 +84,13 @@ class ShootingFit:
     def excess(self) -> float:
         """The channels' variance beyond noise (:func:`channel_excess`)."""
         return channel_excess(self.chi2)
+
+    @property
+    def at_noise(self) -> bool:
+        """Whether every channel's mean square is within :data:`NOISE_BAND` sampling stds of 1 (the
+        mean of n squared unit normals has std sqrt(2 / n)): the closed form leaves nothing the noise
+        does not explain, on any channel."""
+        return all(v <= 1.0 + NOISE_BAND * np.sqrt(2.0 / max(self.samples[c], 1)) for c, v in self.chi2.items())
 
 
 def channel_excess(chi2: dict[str, float]) -> float:
@@ -256,11 +266,12 @@ class Shooting:
         """The fit as it stands, after ``done`` more iterations."""
         seg = self.segments
         starts = self.starts.reshape(seg.n, seg.count, 8)
-        chi2 = self.channel_chi2(seg.misfit(self.out[:, 0]))
-        return ShootingFit(self.theta, starts, self.cost, chi2, int((~self.active).sum()), self.iterations + done)
+        chi2, samples = self.channel_chi2(seg.misfit(self.out[:, 0]))
+        lost = int((~self.active).sum())
+        return ShootingFit(self.theta, starts, self.cost, chi2, samples, lost, self.iterations + done)
 
-    def channel_chi2(self, residual: np.ndarray) -> dict[str, float]:
-        """Each channel's mean squared ``residual`` (R, steps, C) over its samples, leaving out each
+    def channel_chi2(self, residual: np.ndarray) -> tuple[dict[str, float], dict[str, int]]:
+        """Each channel's mean squared ``residual`` (R, steps, C) over its samples, and their count, leaving out each
         cell's first segment where it has more: there only the prior places the unmeasured states
         (the ledge, its and the wall's temperatures), as the filter's tests leave out its settling
         (on alumina_feeder, one cell's first hour held 282 of the true model's 372 in the bath
@@ -270,8 +281,9 @@ class Shooting:
         tested[:, 0] &= seg.count == 1
         tested = tested.reshape(-1)
         sums = (residual[tested] ** 2).sum((0, 1))
-        counts = np.maximum(seg.sampled[tested].sum((0, 1)), 1)
-        return {c: float(v) for c, v in zip(seg.obs.channels, sums / counts, strict=True)}
+        counts = seg.sampled[tested].sum((0, 1))
+        chi2 = {c: float(v) for c, v in zip(seg.obs.channels, sums / np.maximum(counts, 1), strict=True)}
+        return chi2, {c: int(k) for c, k in zip(seg.obs.channels, counts, strict=True)}
 
     def residuals(self, out, ends, starts):
         """Measurement (R, steps, C), continuity (n, S-1, 8) and first-start prior (n, 8) residuals."""
