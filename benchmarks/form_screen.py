@@ -12,8 +12,8 @@ rivals, and the seconds a hypothesis costs in the screen against one fit of it
 one thread.  ``--true-model`` fits the case's true model instead (its states alone): where
 that does not reach the noise, the fits measure the shooting fit's failure, not the hypotheses.
 
-    python benchmarks/form_screen.py [--cases tapping_shortfall alumina_feeder] [--cells 2] [--hours 48] [--refine 3]
-        [--iterations 8 30] [--fit-iterations 8 30] [--hypotheses input:u4 ...] [--grow 0]
+    python benchmarks/form_screen.py [--cases tapping_shortfall alumina_feeder] [--cells 2] [--first-cell 0]
+        [--hours 48] [--refine 3] [--iterations 8 30] [--fit-iterations 8 30] [--hypotheses input:u4 ...] [--grow 0]
         [--true-model]
 """
 
@@ -46,6 +46,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cases", nargs="+", default=["tapping_shortfall", "alumina_feeder"])
     parser.add_argument("--cells", type=int, default=2)
+    parser.add_argument("--first-cell", type=int, default=0, help="the record's cells used: from this one on")
     parser.add_argument("--hours", type=float, default=48.0, help="each cell's record [h]")
     parser.add_argument("--refine", type=int, default=3, help="forms fitted nonlinearly from each ranking")
     parser.add_argument("--iterations", type=int, nargs=2, default=(8, 30), help="of the uncorrected model's states")
@@ -67,7 +68,7 @@ def main() -> None:
         case = find_case(name)
         model = starting_model(config, case.starting)
         train, _ = case_tables(config, name, "plant")
-        obs = observations(train, declared, name).subset(slice(0, args.cells))
+        obs = observations(train, declared, name).subset(slice(args.first_cell, args.first_cell + args.cells))
         if args.true_model:
             started = time.perf_counter()
             true, _ = case.models(model_from_config(config["physics"])[0])
@@ -84,7 +85,7 @@ def main() -> None:
         screened = time.perf_counter() - started
         by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
         print(
-            f"{name} ({args.cells} cells x {obs.y.shape[1] * obs.dt / 3600:g} h; accepted {list(case.accepted)}): "
+            f"{name} (cells {args.first_cell}-{args.first_cell + args.cells - 1} x {obs.y.shape[1] * obs.dt / 3600:g} h; accepted {list(case.accepted)}): "
             f"screen of {len(forms)} hypotheses {screened:.1f} s; uncorrected excess {base.excess:.2f}; "
             f"accepted ranks {_rank([f.hypothesis.key for f in forms], case.accepted)} by BIC gain, "
             f"{_rank([f.hypothesis.key for f in by_excess], case.accepted)} by excess"
