@@ -210,15 +210,18 @@ def shooting_fit(
     fitted to ``obs`` by multiple shooting over segments of ``segment_s`` [s] from ``theta`` (P,)
     (default 0): ``iterations`` of the states alone from starts read from the data (theta held,
     the continuity :data:`LOOSE`), then of the states and theta together; then again from the
-    corrected model's filtered states (:func:`filtered_starts`), the better fit kept (fewer
-    segments lost, then the lower cost).  Given ``starts`` (n, S, 8) (another fit's), that fit alone."""
+    corrected model's filtered states (:func:`filtered_starts`; the first fit's where the filter's
+    are lost), the better fit kept (fewer segments lost, then the lower cost).  Given ``starts`` (n, S, 8) (another fit's), that fit alone."""
     fit, theta = Shooting.placed(model, hypothesis, features, obs, segment_s, iterations[0], starts, theta)
     best = fit.result(fit.run(theta, iterations[1], hold_theta=False))
     if starts is not None:
         return best
     corrected = model if hypothesis is None else hypothesis.corrected(model, features, best.theta)
-    again = filtered_starts(corrected, obs, segment_s)
+    again = filtered_starts(corrected, obs, segment_s).reshape(-1, 8)
     fit, theta = Shooting.placed(model, hypothesis, features, obs, segment_s, 0, again, best.theta)
+    if not fit.active.all():  # where the filter's states are lost, the first fit's starts serve
+        again = np.where(fit.active[:, None], again, best.starts.reshape(-1, 8))
+        fit, theta = Shooting.placed(model, hypothesis, features, obs, segment_s, 0, again, best.theta)
     refit = fit.result(fit.run(theta, iterations[1], hold_theta=False))
     return refit if (refit.lost, refit.cost) < (best.lost, best.cost) else best
 
