@@ -85,7 +85,8 @@ def main() -> None:
         screened = time.perf_counter() - started
         by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
         print(
-            f"{name} (cells {args.first_cell}-{args.first_cell + args.cells - 1} x {obs.y.shape[1] * obs.dt / 3600:g} h; accepted {list(case.accepted)}): "
+            f"{name} (cells {args.first_cell}-{args.first_cell + args.cells - 1} x {obs.y.shape[1] * obs.dt / 3600:g} h; "
+            f"accepted {list(case.accepted)}): "
             f"screen of {len(forms)} hypotheses {screened:.1f} s; uncorrected excess {base.excess:.2f}; "
             f"accepted ranks {_rank([f.hypothesis.key for f in forms], case.accepted)} by BIC gain, "
             f"{_rank([f.hypothesis.key for f in by_excess], case.accepted)} by excess"

@@ -211,7 +211,8 @@ def shooting_fit(
     (default 0): ``iterations`` of the states alone from starts read from the data (theta held,
     the continuity :data:`LOOSE`), then of the states and theta together; then again from the
     corrected model's filtered states (:func:`filtered_starts`; the first fit's where the filter's
-    are lost), the better fit kept (fewer segments lost, then the lower cost).  Given ``starts`` (n, S, 8) (another fit's), that fit alone."""
+    are lost), the better fit kept (fewer segments lost, then the lower cost).  Given ``starts``
+    (n, S, 8) (another fit's), that fit alone."""
     fit, theta = Shooting.placed(model, hypothesis, features, obs, segment_s, iterations[0], starts, theta)
     best = fit.result(fit.run(theta, iterations[1], hold_theta=False))
     if starts is not None:
