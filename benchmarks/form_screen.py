@@ -100,24 +100,20 @@ def main() -> None:
                 model, form.hypothesis, form.features, obs, rounds=args.grow, iterations=tuple(args.fit_iterations)
             )
             seconds.append(time.perf_counter() - started)
-            fitted.append(
-                FittedForm(form.hypothesis, tuple(features), fit, base.cost - fit.cost - len(features) * penalty)
-            )
+            gain = base.cost - fit.cost - len(features) * penalty
+            corrected = form.hypothesis.corrected(model, features, fit.theta)
+            fitted.append(FittedForm(form.hypothesis, tuple(features), fit, gain, corrected))
             terms = " + ".join(f"{t:+.4g} {f.name}" for t, f in zip(fit.theta, features, strict=True))
             chi2 = ", ".join(f"{c} {v:.2f}" for c, v in fit.chi2.items())
             noise = "at noise" if fit.at_noise else "flagged"
             print(f"  {form.hypothesis.key:36s} {terms:60s} BIC gain {fitted[-1].bic_gain:10.0f}  {chi2} ({noise})  "
                   f"{seconds[-1]:5.1f} s")  # fmt: skip
         if fitted:
-            order, undecided = ranked_fits(fitted)
-            keys = [f.hypothesis.key for f in order]
+            hourly = obs.u[:, :: round(3600 / obs.dt)][:, : base.starts.shape[1]]
+            ranking = ranked_fits(fitted, model, base.starts.reshape(-1, 8), hourly.reshape(-1, 5))
+            keys = [f.hypothesis.key for f in ranking.order]
             print(f"  ranked: {keys}; accepted ranks {_rank(keys, case.accepted)}")
-            if not order:
-                print("  verdict: no fit pays its terms")
-            elif len(undecided) == 1:
-                print(f"  verdict: told apart: {keys[0]}{' (right)' if keys[0] in case.accepted else ''}")
-            else:
-                print(f"  verdict: undecided among {[f.hypothesis.key for f in undecided]}")
+            print(f"  verdict: {ranking.verdict}")
             print(f"  one fit {np.mean(seconds):.1f} s, a hypothesis in the screen {screened / len(forms):.2f} s: "
                   f"{np.mean(seconds) * len(forms) / screened:.1f}x")  # fmt: skip
 

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
+from conftest import random_operating_points
 
+from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.sparse.form_screen import FittedForm, _forward, ranked_fits, states_eliminated
 from costa.discover.sparse.shooting import ShootingFit
 
@@ -51,25 +51,33 @@ def test_forward_selection_finds_the_planted_terms_and_stops_where_a_term_no_lon
     np.testing.assert_allclose(reduction, expected, rtol=1e-9)
 
 
-def _fitted(key: str, bic_gain: float, chi2: dict[str, float], samples: int = 100) -> FittedForm:
-    fit = ShootingFit(np.zeros(1), np.zeros((1, 1, 8)), 0.0, chi2, dict.fromkeys(chi2, samples), 0, 1)
-    return FittedForm(SimpleNamespace(key=key), (), fit, bic_gain)
+def _fitted(model, hypotheses, key: str, coefficient: float, bic_gain: float, chi2: dict[str, float]) -> FittedForm:
+    h = hypotheses[key]
+    constant = next(f for f in h.features() if f.name == "1")
+    fit = ShootingFit(np.zeros(1), np.zeros((1, 1, 8)), 0.0, chi2, dict.fromkeys(chi2, 100), 0, 1)
+    return FittedForm(h, (constant,), fit, bic_gain, h.corrected(model, [constant], [coefficient]))
 
 
-def test_fits_at_their_noise_are_ranked_by_bic_and_close_rivals_stay_undecided():
+def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_leave_it_undecided(model):
     """Among fits whose every channel is within 3 sampling stds of its noise (100 samples: 1.42), the
-    BIC decides, not the noise-level excess; a rival within 10 of the first's BIC gain is not told
-    apart; a fit that pays nothing (BIC gain <= 0) does not rank; a flagged fit comes after."""
-    right = _fitted("right", 500.0, {"x6": 1.30, "c3": 0.9})
-    close = _fitted("close", 495.0, {"x6": 0.95, "c3": 0.8})
-    far = _fitted("far", 300.0, {"x6": 1.0, "c3": 0.7})
-    flagged = _fitted("flagged", 9000.0, {"x6": 1.50, "c3": 0.9})
-    free = _fitted("free", 0.0, {"x6": 0.9, "c3": 0.9})
-    order, undecided = ranked_fits([far, flagged, close, free, right])
-    assert [f.hypothesis.key for f in order] == ["right", "close", "far", "flagged"]
-    assert [f.hypothesis.key for f in undecided] == ["right", "close"]
-    order, undecided = ranked_fits([right, far])
-    assert undecided == [right]
-    order, undecided = ranked_fits([flagged, free])
-    assert order == undecided == [flagged]
-    assert ranked_fits([free]) == ([], [])
+    BIC decides, not the noise-level excess.  A constant AlF3 sink and the same change of the AlF3
+    neutralisation are the same physics: named together.  A rival of other physics within 10 of the
+    first's BIC gain leaves it undecided; a fit that pays nothing (BIC gain <= 0) does not rank; where
+    the best is flagged, the outcome is unexplained."""
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    x, u = random_operating_points(np.random.default_rng(0), 20)
+    sink = _fitted(model, hypotheses, "term:alf3_mass", -0.0026, 500.0, {"x6": 1.30, "c3": 0.9})
+    same = _fitted(model, hypotheses, "part:alf3_neutralisation", 0.0026, 499.0, {"x6": 0.95, "c3": 0.8})
+    other = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 495.0, {"x6": 1.0, "c3": 0.7})
+    flagged = _fitted(model, hypotheses, "input:u3", 0.1, 9000.0, {"x6": 1.50, "c3": 0.9})
+    free = _fitted(model, hypotheses, "input:u4", 0.1, 0.0, {"x6": 0.9, "c3": 0.9})
+
+    ranking = ranked_fits([same, flagged, sink, free], model, x, u)
+    assert ranking.order == [sink, same, flagged]
+    assert ranking.verdict == "named: term:alf3_mass (the same physics: ['part:alf3_neutralisation'])"
+    ranking = ranked_fits([same, other, sink], model, x, u)
+    assert ranking.rivals == [other] and ranking.verdict.startswith("undecided among")
+    other = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 489.0, {"x6": 1.0, "c3": 0.7})
+    assert ranked_fits([other, sink], model, x, u).verdict == "named: term:alf3_mass"
+    assert ranked_fits([flagged, free], model, x, u).verdict.startswith("unexplained: the best correction, input:u3")
+    assert ranked_fits([free], model, x, u).verdict == "nothing: no fit pays its terms"

@@ -4,11 +4,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-from ...physics import PART_ORDER, PROPERTIES
+import numpy as np
+
+from ...physics import PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
 from .hypotheses import PREFERENCE, Hypothesis
 
-__all__ = ["naming_order", "removal"]
+__all__ = ["naming_order", "removal", "same_physics"]
+
+#: two corrections whose changes of the state rates differ by less than this share are the same physics
+SAME_PHYSICS = 0.05
 
 
 def _consequences(h: Hypothesis, reads: Mapping[str, frozenset[str]]) -> set[str]:
@@ -49,3 +54,17 @@ def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item
         return (h.key not in named, consequence, terms(item), PREFERENCE[h.kind], order.index(h.target))
 
     return sorted(items, key=key)
+
+
+def same_physics(a: CellModel, b: CellModel, model: CellModel, x: np.ndarray, u: np.ndarray) -> bool:
+    """Whether two corrections of ``model`` change every state rate alike at the states x (..., 8) and
+    inputs u (..., 5): then no measurement of the states could tell them apart (a tapping gain and the
+    same flow in the metal balance; a flow into the bath energy balance and the same change of the
+    electric power)."""
+    with np.errstate(all="ignore"):
+        base = model.rhs(x, u)
+        da, db = (c.rhs(x, u) - base for c in (a, b))
+    scale = np.nanmax(np.abs(np.concatenate([da, db])).reshape(-1, 8), axis=0) + 1e-300
+    difference = np.linalg.norm(np.nan_to_num((da - db) / scale))
+    size = max(np.linalg.norm(np.nan_to_num(da / scale)), np.linalg.norm(np.nan_to_num(db / scale)), 1e-300)
+    return bool(difference / size < SAME_PHYSICS)

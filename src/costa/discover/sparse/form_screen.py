@@ -22,12 +22,14 @@ import numpy as np
 from ...physics import CellModel
 from ..core.hypotheses import Hypothesis
 from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
+from ..core.naming import same_physics
 from .observations import Observations
 from .observed import PRIOR_STD
 from .shooting import Segments, Shooting, ShootingFit, channel_excess, shooting_fit
 
 __all__ = [
     "FittedForm",
+    "Ranking",
     "ScreenedForm",
     "grown_form",
     "ranked_fits",
@@ -235,29 +237,53 @@ def grown_form(
 @dataclass(frozen=True)
 class FittedForm:
     """A hypothesis' closed form fitted nonlinearly: ``bic_gain`` is the uncorrected fit's cost less
-    this fit's, less log(samples) a term."""
+    this fit's, less log(samples) a term; ``corrected``: the model it corrects, so corrected."""
 
     hypothesis: Hypothesis
     features: tuple[Feature, ...]
     fit: ShootingFit
     bic_gain: float
+    corrected: CellModel
 
 
-def ranked_fits(fits: Sequence[FittedForm]) -> tuple[list[FittedForm], list[FittedForm]]:
-    """The fits that pay their terms (positive BIC gain), best first, and those the first is not told
-    apart from (itself included; empty where none pays).  Fits that leave every channel at its noise
-    (:attr:`.shooting.ShootingFit.at_noise`) come first, ordered by BIC gain: differences in the
-    excess there are noise.  The rest follow by their excess (to 0.1 noise variances), then BIC gain.
-    A rival at noise within :data:`MARGIN` of the first's BIC gain is not told apart; where the first
-    is not at noise, no fit is told apart from any other that pays."""
-    paying = [f for f in fits if f.bic_gain > 0]
+@dataclass(frozen=True)
+class Ranking:
+    """Fitted forms that pay their terms (positive BIC gain), best first (``order``); of those the first
+    is not told apart from (within :data:`MARGIN` of its BIC gain, at noise), ``equivalent`` are the
+    same physics as it (itself included) and ``rivals`` are not."""
+
+    order: list[FittedForm]
+    equivalent: list[FittedForm]
+    rivals: list[FittedForm]
+
+    @property
+    def verdict(self) -> str:
+        """What the fits decide, in words."""
+        if not self.order:
+            return "nothing: no fit pays its terms"
+        first = self.order[0]
+        if not first.fit.at_noise:
+            flagged = [c for c, v in first.fit.chi2.items() if v > 1.0]
+            return f"unexplained: the best correction, {first.hypothesis.key}, leaves {flagged} beyond noise"
+        same = [f.hypothesis.key for f in self.equivalent]
+        if self.rivals:
+            return f"undecided among {same + [f.hypothesis.key for f in self.rivals]}"
+        return f"named: {first.hypothesis.key}" + (f" (the same physics: {same[1:]})" if len(same) > 1 else "")
+
+
+def ranked_fits(fits: Sequence[FittedForm], model: CellModel, x: np.ndarray, u: np.ndarray) -> Ranking:
+    """The fits ranked and the first's rivals (:class:`Ranking`); physics compared at the states x
+    (N, 8) and inputs u (N, 5) (:func:`..core.naming.same_physics`).  Fits that leave every channel at
+    its noise (:attr:`.shooting.ShootingFit.at_noise`) come first, by BIC gain: differences in the
+    excess there are noise.  The rest follow by their excess (to 0.1 noise variances), then BIC gain;
+    where the first is one of them, nothing is told apart (the outcome is unexplained)."""
     order = sorted(
-        paying,
+        [f for f in fits if f.bic_gain > 0],
         key=lambda f: (not f.fit.at_noise, -f.bic_gain if f.fit.at_noise else round(f.fit.excess, 1), -f.bic_gain),
     )
-    if not order:
-        return [], []
+    if not order or not order[0].fit.at_noise:
+        return Ranking(order, order[:1], [])
     first = order[0]
-    if not first.fit.at_noise:
-        return order, order
-    return order, [f for f in order if f.fit.at_noise and first.bic_gain - f.bic_gain < MARGIN]
+    close = [f for f in order if f.fit.at_noise and first.bic_gain - f.bic_gain < MARGIN]
+    same = [f for f in close if f is first or same_physics(f.corrected, first.corrected, model, x, u)]
+    return Ranking(order, same, [f for f in close if f not in same])

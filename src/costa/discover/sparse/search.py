@@ -47,7 +47,7 @@ from ...physics import CellModel
 from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
 from ..core.hypotheses import Hypothesis, candidate_hypotheses
 from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ..core.naming import naming_order, removal
+from ..core.naming import naming_order, removal, same_physics
 from ..core.regression import (
     GramSystem,
     coefficient_samples,
@@ -85,8 +85,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: two corrections whose changes of the state rates differ by less than this share are the same physics
-SAME_PHYSICS = 0.05
 #: two hypotheses whose changes of the state rates, each at a constant delta, differ by less than this
 #: share (rounding) are one fit: unlike fitted corrections, no closed form can tell them apart
 SAME_EFFECT = 1e-4
@@ -214,19 +212,6 @@ def _dispersion(ranking: Sequence[PartialCandidate]) -> float:
     tests = ranking[0].tests_after if ranking else []
     samples = sum(t.samples for t in tests)
     return max(1.0, sum(t.chi2_per_dof * t.samples for t in tests) / samples) if samples else 1.0
-
-
-def _same_physics(a: PartialCandidate, b: PartialCandidate, model: CellModel, x: np.ndarray, u: np.ndarray) -> bool:
-    """Whether two fitted corrections change every state rate alike at the estimated states x (..., 8):
-    then no measurement of the states could tell them apart (a tapping gain and the same flow in
-    the metal balance; a flow into the bath energy balance and the same change of the electric power)."""
-    with np.errstate(all="ignore"):
-        base = model.rhs(x, u)
-        da, db = (c.corrected.rhs(x, u) - base for c in (a, b))
-    scale = np.nanmax(np.abs(np.concatenate([da, db])).reshape(-1, 8), axis=0) + 1e-300
-    difference = np.linalg.norm(np.nan_to_num((da - db) / scale))
-    size = max(np.linalg.norm(np.nan_to_num(da / scale)), np.linalg.norm(np.nan_to_num(db / scale)), 1e-300)
-    return bool(difference / size < SAME_PHYSICS)
 
 
 def _feature_values(
@@ -572,7 +557,7 @@ def decide_round(
     x = screen.states  # every 16th step
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
     chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
-    different = [c for c in equivalent if not _same_physics(c, chosen, model, x, obs.u[:, ::16])]
+    different = [c for c in equivalent if not same_physics(c.corrected, chosen.corrected, model, x, obs.u[:, ::16])]
     fewer = [
         c
         for c in ranking
@@ -580,7 +565,7 @@ def decide_round(
         and c not in equivalent
         and 0 < len(c.features) < len(chosen.features)
         and np.isfinite(c.bic_gain)
-        and not _same_physics(c, chosen, model, x, obs.u[:, ::16])
+        and not same_physics(c.corrected, chosen.corrected, model, x, obs.u[:, ::16])
     ]
     samples = int(np.isfinite(obs.y).sum())
     margin = settings.equivalence * dispersion
