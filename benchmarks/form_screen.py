@@ -102,15 +102,17 @@ def main() -> None:
             seconds.append(time.perf_counter() - started)
             gain = base.cost - fit.cost - len(features) * penalty
             corrected = form.hypothesis.corrected(model, features, fit.theta)
-            fitted.append(FittedForm(form.hypothesis, tuple(features), fit, gain, corrected))
+            cells = base.cell_cost - fit.cell_cost
+            fitted.append(FittedForm(form.hypothesis, tuple(features), fit, gain, cells, corrected))
             terms = " + ".join(f"{t:+.4g} {f.name}" for t, f in zip(fit.theta, features, strict=True))
             chi2 = ", ".join(f"{c} {v:.2f}" for c, v in fit.chi2.items())
             noise = "at noise" if fit.at_noise else "flagged"
-            print(f"  {form.hypothesis.key:36s} {terms:60s} BIC gain {fitted[-1].bic_gain:10.0f}  {chi2} ({noise})  "
+            print(f"  {form.hypothesis.key:36s} {terms:60s} BIC gain {gain:10.0f} (cells {np.round(cells)})  "
+                  f"{chi2} ({noise})  "
                   f"{seconds[-1]:5.1f} s")  # fmt: skip
         if fitted:
             hourly = obs.u[:, :: round(3600 / obs.dt)][:, : base.starts.shape[1]]
-            ranking = ranked_fits(fitted, model, base.starts.reshape(-1, 8), hourly.reshape(-1, 5))
+            ranking = ranked_fits(fitted, model, base.starts.reshape(-1, 8), hourly.reshape(-1, 5), penalty)
             keys = [f.hypothesis.key for f in ranking.order]
             print(f"  ranked: {keys}; accepted ranks {_rank(keys, case.accepted)}")
             print(f"  verdict: {ranking.verdict}")

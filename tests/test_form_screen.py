@@ -51,19 +51,27 @@ def test_forward_selection_finds_the_planted_terms_and_stops_where_a_term_no_lon
     np.testing.assert_allclose(reduction, expected, rtol=1e-9)
 
 
-def _fitted(model, hypotheses, key: str, coefficient: float, bic_gain: float, chi2: dict[str, float]) -> FittedForm:
+#: a term's price in the tests below: log(samples)
+PENALTY = 11.0
+
+
+def _fitted(
+    model, hypotheses, key: str, coefficient: float, bic_gain: float, chi2: dict[str, float], cells=(0.5, 0.5)
+) -> FittedForm:
     h = hypotheses[key]
     constant = next(f for f in h.features() if f.name == "1")
-    fit = ShootingFit(np.zeros(1), np.zeros((1, 1, 8)), 0.0, chi2, dict.fromkeys(chi2, 100), 0, 1)
-    return FittedForm(h, (constant,), fit, bic_gain, h.corrected(model, [constant], [coefficient]))
+    fit = ShootingFit(np.zeros(1), np.zeros((1, 1, 8)), 0.0, np.zeros(2), chi2, dict.fromkeys(chi2, 100), 0, 1)
+    gains = np.array(cells) * (bic_gain + PENALTY)
+    return FittedForm(h, (constant,), fit, bic_gain, gains, h.corrected(model, [constant], [coefficient]))
 
 
 def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_leave_it_undecided(model):
     """Among fits whose every channel is within 3 sampling stds of its noise (100 samples: 1.42), the
     BIC decides, not the noise-level excess.  A constant AlF3 sink and the same change of the AlF3
     neutralisation are the same physics: named together.  A rival of other physics within 10 of the
-    first's BIC gain leaves it undecided; a fit that pays nothing (BIC gain <= 0) does not rank; where
-    the best is flagged, the outcome is unexplained."""
+    first's BIC gain leaves it undecided; a fit that pays nothing (BIC gain <= 0), or that one cell
+    carries while another loses more than a term's price, does not rank; where the best is flagged,
+    the outcome is unexplained."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     x, u = random_operating_points(np.random.default_rng(0), 20)
     sink = _fitted(model, hypotheses, "term:alf3_mass", -0.0026, 500.0, {"x6": 1.30, "c3": 0.9})
@@ -72,12 +80,16 @@ def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_
     flagged = _fitted(model, hypotheses, "input:u3", 0.1, 9000.0, {"x6": 1.50, "c3": 0.9})
     free = _fitted(model, hypotheses, "input:u4", 0.1, 0.0, {"x6": 0.9, "c3": 0.9})
 
-    ranking = ranked_fits([same, flagged, sink, free], model, x, u)
+    ranking = ranked_fits([same, flagged, sink, free], model, x, u, PENALTY)
     assert ranking.order == [sink, same, flagged]
     assert ranking.verdict == "named: term:alf3_mass (the same physics: ['part:alf3_neutralisation'])"
-    ranking = ranked_fits([same, other, sink], model, x, u)
+    ranking = ranked_fits([same, other, sink], model, x, u, PENALTY)
     assert ranking.rivals == [other] and ranking.verdict.startswith("undecided among")
     other = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 489.0, {"x6": 1.0, "c3": 0.7})
-    assert ranked_fits([other, sink], model, x, u).verdict == "named: term:alf3_mass"
-    assert ranked_fits([flagged, free], model, x, u).verdict.startswith("unexplained: the best correction, input:u3")
-    assert ranked_fits([free], model, x, u).verdict == "nothing: no fit pays its terms"
+    assert ranked_fits([other, sink], model, x, u, PENALTY).verdict == "named: term:alf3_mass"
+    assert ranked_fits([flagged, free], model, x, u, PENALTY).verdict.startswith(
+        "unexplained: the best correction, input:u3"
+    )
+    assert ranked_fits([free], model, x, u, PENALTY).verdict == "nothing: no fit pays its terms"
+    lopsided = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 800.0, {"x6": 1.0}, cells=(1.1, -0.1))
+    assert ranked_fits([lopsided, sink], model, x, u, PENALTY).order == [sink]

@@ -237,12 +237,14 @@ def grown_form(
 @dataclass(frozen=True)
 class FittedForm:
     """A hypothesis' closed form fitted nonlinearly: ``bic_gain`` is the uncorrected fit's cost less
-    this fit's, less log(samples) a term; ``corrected``: the model it corrects, so corrected."""
+    this fit's, less log(samples) a term, and ``cell_gains`` (n,) each cell's cost decrease;
+    ``corrected``: the model it corrects, so corrected."""
 
     hypothesis: Hypothesis
     features: tuple[Feature, ...]
     fit: ShootingFit
     bic_gain: float
+    cell_gains: np.ndarray
     corrected: CellModel
 
 
@@ -271,14 +273,18 @@ class Ranking:
         return f"named: {first.hypothesis.key}" + (f" (the same physics: {same[1:]})" if len(same) > 1 else "")
 
 
-def ranked_fits(fits: Sequence[FittedForm], model: CellModel, x: np.ndarray, u: np.ndarray) -> Ranking:
+def ranked_fits(fits: Sequence[FittedForm], model: CellModel, x: np.ndarray, u: np.ndarray, penalty: float) -> Ranking:
     """The fits ranked and the first's rivals (:class:`Ranking`); physics compared at the states x
-    (N, 8) and inputs u (N, 5) (:func:`..core.naming.same_physics`).  Fits that leave every channel at
+    (N, 8) and inputs u (N, 5) (:func:`..core.naming.same_physics`).  A fit pays where its BIC gain is
+    positive and it makes no cell worse by more than ``penalty`` (a term's price, log(samples)): an
+    effect missing from the model is missing in every cell, and a gain that one cell alone carries
+    fits that cell's own misplacement (on tapping_shortfall a wall heat capacity in c2 gained 812 in
+    one cell's filter likelihood and lost 22 in the other's).  Fits that leave every channel at
     its noise (:attr:`.shooting.ShootingFit.at_noise`) come first, by BIC gain: differences in the
     excess there are noise.  The rest follow by their excess (to 0.1 noise variances), then BIC gain;
     where the first is one of them, nothing is told apart (the outcome is unexplained)."""
     order = sorted(
-        [f for f in fits if f.bic_gain > 0],
+        [f for f in fits if f.bic_gain > 0 and f.cell_gains.min() > -penalty],
         key=lambda f: (not f.fit.at_noise, -f.bic_gain if f.fit.at_noise else round(f.fit.excess, 1), -f.bic_gain),
     )
     if not order or not order[0].fit.at_noise:

@@ -67,7 +67,8 @@ STATE_STEP, COEFFICIENT_STEP = 1e-4, 1e-4
 @dataclass(frozen=True)
 class ShootingFit:
     """The fitted coefficients (P,), segment starts (n, S, 8), the cost (the sum of squared
-    residuals, each in noise stds; minus twice a log-likelihood up to a constant), each
+    residuals, each in noise stds; minus twice a log-likelihood up to a constant) and each
+    cell's share of it (n,), each
     channel's mean squared residual over its samples after each cell's first segment
     (:meth:`Shooting.channel_chi2`) and its count of samples, the segments left out (lost already
     at the start) and the Levenberg-Marquardt iterations taken."""
@@ -75,6 +76,7 @@ class ShootingFit:
     theta: np.ndarray
     starts: np.ndarray
     cost: float
+    cell_cost: np.ndarray
     chi2: dict[str, float]
     samples: dict[str, int]
     lost: int
@@ -271,8 +273,12 @@ class Shooting:
         seg = self.segments
         starts = self.starts.reshape(seg.n, seg.count, 8)
         chi2, samples = self.channel_chi2(seg.misfit(self.out[:, 0]))
+        measured, continuity, prior, _ = self.res
+        cells = (measured**2).sum((1, 2)).reshape(seg.n, seg.count).sum(1) + (continuity**2).sum((1, 2))
         lost = int((~self.active).sum())
-        return ShootingFit(self.theta, starts, self.cost, chi2, samples, lost, self.iterations + done)
+        return ShootingFit(
+            self.theta, starts, self.cost, cells + (prior**2).sum(1), chi2, samples, lost, self.iterations + done
+        )
 
     def channel_chi2(self, residual: np.ndarray) -> tuple[dict[str, float], dict[str, int]]:
         """Each channel's mean squared ``residual`` (R, steps, C) over its samples, and their count, leaving out each
