@@ -70,8 +70,8 @@ def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_
     BIC decides, not the noise-level excess.  A constant AlF3 sink and the same change of the AlF3
     neutralisation are the same physics: named together.  A rival of other physics within 10 of the
     first's BIC gain leaves it undecided; a fit that pays nothing (BIC gain <= 0), or that one cell
-    carries while another loses more than a term's price, does not rank; where the best is flagged,
-    the outcome is unexplained."""
+    carries while another does not pay its share of the term's price, does not rank; where the best
+    is flagged, the outcome is unexplained."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     x, u = random_operating_points(np.random.default_rng(0), 20)
     sink = _fitted(model, hypotheses, "term:alf3_mass", -0.0026, 500.0, {"x6": 1.30, "c3": 0.9})
@@ -91,5 +91,7 @@ def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_
         "unexplained: the best correction, input:u3"
     )
     assert ranked_fits([free], model, x, u, PENALTY).verdict == "nothing: no fit pays its terms"
-    lopsided = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 800.0, {"x6": 1.0}, cells=(1.1, -0.1))
+    lopsided = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 800.0, {"x6": 1.0}, cells=(0.995, 0.005))
     assert ranked_fits([lopsided, sink], model, x, u, PENALTY).order == [sink]
+    even = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 800.0, {"x6": 1.0}, cells=(0.9, 0.1))
+    assert ranked_fits([even, sink], model, x, u, PENALTY).order == [even, sink]

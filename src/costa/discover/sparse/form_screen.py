@@ -275,16 +275,17 @@ class Ranking:
 
 def ranked_fits(fits: Sequence[FittedForm], model: CellModel, x: np.ndarray, u: np.ndarray, penalty: float) -> Ranking:
     """The fits ranked and the first's rivals (:class:`Ranking`); physics compared at the states x
-    (N, 8) and inputs u (N, 5) (:func:`..core.naming.same_physics`).  A fit pays where its BIC gain is
-    positive and it makes no cell worse by more than ``penalty`` (a term's price, log(samples)): an
-    effect missing from the model is missing in every cell, and a gain that one cell alone carries
-    fits that cell's own misplacement (on tapping_shortfall a wall heat capacity in c2 gained 812 in
-    one cell's filter likelihood and lost 22 in the other's).  Fits that leave every channel at
+    (N, 8) and inputs u (N, 5) (:func:`..core.naming.same_physics`).  A fit pays where every cell pays
+    its share of the terms' price (``penalty``, log(samples), a term): an effect missing from the
+    model is missing in every cell, and a gain that one cell alone carries fits that cell's own
+    misplacement.  On tapping_shortfall's first two cells a wall heat capacity in c2 gained 1 and 226
+    (its filter's likelihood: -22 and 812) where the right tapping gain gained 13 and 20.  Where a
+    cell's record cannot show the effect, nothing is named.  Fits that leave every channel at
     its noise (:attr:`.shooting.ShootingFit.at_noise`) come first, by BIC gain: differences in the
     excess there are noise.  The rest follow by their excess (to 0.1 noise variances), then BIC gain;
     where the first is one of them, nothing is told apart (the outcome is unexplained)."""
     order = sorted(
-        [f for f in fits if f.bic_gain > 0 and f.cell_gains.min() > -penalty],
+        [f for f in fits if f.bic_gain > 0 and f.cell_gains.min() > len(f.features) * penalty / len(f.cell_gains)],
         key=lambda f: (not f.fit.at_noise, -f.bic_gain if f.fit.at_noise else round(f.fit.excess, 1), -f.bic_gain),
     )
     if not order or not order[0].fit.at_noise:
