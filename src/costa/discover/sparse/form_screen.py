@@ -22,7 +22,7 @@ import numpy as np
 from ...physics import CellModel
 from ..core.hypotheses import Hypothesis
 from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from ..core.naming import same_physics
+from ..core.naming import naming_order, same_physics
 from .observations import Observations
 from .observed import PRIOR_STD
 from .shooting import Segments, Shooting, ShootingFit, channel_excess, shooting_fit
@@ -252,7 +252,8 @@ class FittedForm:
 class Ranking:
     """Fitted forms that pay their terms (positive BIC gain), best first (``order``); of those the first
     is not told apart from (within :data:`MARGIN` of its BIC gain, at noise), ``equivalent`` are the
-    same physics as it (itself included) and ``rivals`` are not."""
+    same physics as it (itself included), in the order they are named (:func:`..core.naming.naming_order`:
+    the cause before its consequences, an input before a part), and ``rivals`` are not."""
 
     order: list[FittedForm]
     equivalent: list[FittedForm]
@@ -270,7 +271,7 @@ class Ranking:
         same = [f.hypothesis.key for f in self.equivalent]
         if self.rivals:
             return f"undecided among {same + [f.hypothesis.key for f in self.rivals]}"
-        return f"named: {first.hypothesis.key}" + (f" (the same physics: {same[1:]})" if len(same) > 1 else "")
+        return f"named: {same[0]}" + (f" (the same physics: {same[1:]})" if len(same) > 1 else "")
 
 
 def ranked_fits(fits: Sequence[FittedForm], model: CellModel, x: np.ndarray, u: np.ndarray, penalty: float) -> Ranking:
@@ -293,4 +294,5 @@ def ranked_fits(fits: Sequence[FittedForm], model: CellModel, x: np.ndarray, u: 
     first = order[0]
     close = [f for f in order if f.fit.at_noise and first.bic_gain - f.bic_gain < MARGIN]
     same = [f for f in close if f is first or same_physics(f.corrected, first.corrected, model, x, u)]
-    return Ranking(order, same, [f for f in close if f not in same])
+    named = naming_order(same, (), model.reads(x[:1], u[:1]), terms=lambda f: len(f.features))
+    return Ranking(order, named, [f for f in close if f not in same])
