@@ -161,7 +161,7 @@ def screen_forms(
     ``terms``) with its predicted gain and channels, best BIC gain first."""
     fitted = shooting_fit(model, None, [], obs, segment_s, iterations, starts)
     base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts)
-    base.run(np.zeros(0), 0, hold_theta=True)
+    base.out, base.ends, base.res, base.cost = base.evaluate(base.starts, np.zeros(0))
     seg = base.segments
     rows = base.starts
     u0 = seg.u[:, 0]
