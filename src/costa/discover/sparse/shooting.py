@@ -67,11 +67,10 @@ STATE_STEP, COEFFICIENT_STEP = 1e-4, 1e-4
 @dataclass(frozen=True)
 class ShootingFit:
     """The fitted coefficients (P,), segment starts (n, S, 8), the cost (the sum of squared
-    residuals, each in noise stds; minus twice a log-likelihood up to a constant) and each
-    cell's share of it (n,), each
-    channel's mean squared residual over its samples after each cell's first segment
-    (:meth:`Shooting.channel_chi2`) and its count of samples, the segments left out (lost already
-    at the start) and the Levenberg-Marquardt iterations taken."""
+    residuals, each in noise stds; minus twice a log-likelihood up to a constant) and each cell's
+    share of it (n,), each channel's mean squared residual over its samples after each cell's
+    first segment (:meth:`Shooting.channel_chi2`) and its count of samples, the segments left out
+    (lost already at the start) and the Levenberg-Marquardt iterations taken."""
 
     theta: np.ndarray
     starts: np.ndarray
@@ -273,16 +272,13 @@ class Shooting:
         seg = self.segments
         starts = self.starts.reshape(seg.n, seg.count, 8)
         chi2, samples = self.channel_chi2(seg.misfit(self.out[:, 0]))
-        measured, continuity, prior, _ = self.res
-        cells = (measured**2).sum((1, 2)).reshape(seg.n, seg.count).sum(1) + (continuity**2).sum((1, 2))
         lost = int((~self.active).sum())
-        return ShootingFit(
-            self.theta, starts, self.cost, cells + (prior**2).sum(1), chi2, samples, lost, self.iterations + done
-        )
+        cells = self.cell_costs(self.res)
+        return ShootingFit(self.theta, starts, self.cost, cells, chi2, samples, lost, self.iterations + done)
 
     def channel_chi2(self, residual: np.ndarray) -> tuple[dict[str, float], dict[str, int]]:
-        """Each channel's mean squared ``residual`` (R, steps, C) over its samples, and their count, leaving out each
-        cell's first segment where it has more: there only the prior places the unmeasured states
+        """Each channel's mean squared ``residual`` (R, steps, C) over its samples, and their count,
+        leaving out each cell's first segment where it has more: there only the prior places the unmeasured states
         (the ledge, its and the wall's temperatures), as the filter's tests leave out its settling
         (on alumina_feeder, one cell's first hour held 282 of the true model's 372 in the bath
         temperature)."""
@@ -309,9 +305,17 @@ class Shooting:
 
     def evaluate(self, starts, theta):
         out, ends = self.segments.integrate(starts, theta)
-        measured, continuity, prior, linked = self.residuals(out, ends, starts)
-        cost = float((measured**2).sum() + (continuity**2).sum() + (prior**2).sum())
-        return out, ends, (measured, continuity, prior, linked), cost if np.isfinite(cost) else np.inf
+        res = self.residuals(out, ends, starts)
+        cost = float(self.cell_costs(res).sum())
+        return out, ends, res, cost if np.isfinite(cost) else np.inf
+
+    def cell_costs(self, res) -> np.ndarray:
+        """Each cell's share (n,) of the cost at the residuals ``res`` (:meth:`residuals`)."""
+        seg = self.segments
+        measured, continuity, prior, _ = res
+        return (
+            (measured**2).sum((1, 2)).reshape(seg.n, seg.count).sum(1) + (continuity**2).sum((1, 2)) + (prior**2).sum(1)
+        )
 
     def leave_out_lost(self, starts, theta):
         """Leave out the segments whose integration is lost already from their first state."""
