@@ -6,6 +6,7 @@ import numpy as np
 from conftest import random_operating_points
 
 from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.naming import balance_moved
 from costa.discover.sparse.form_screen import FittedForm, _forward, ranked_fits, states_eliminated
 from costa.discover.sparse.shooting import ShootingFit
 
@@ -95,3 +96,26 @@ def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_
     assert ranked_fits([lopsided, sink], model, x, u, PENALTY).order == [sink]
     even = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 800.0, {"x6": 1.0}, cells=(0.9, 0.1))
     assert ranked_fits([even, sink], model, x, u, PENALTY).order == [even, sink]
+
+
+def test_a_fit_that_moves_one_balance_alone_is_named_as_the_flow_missing_from_it(model):
+    """A constant 20.6 kW taken from the bath's heat of freezing changes the bath energy's rate and
+    nothing else: no measurement tells it from a heat loss from the bath, the less specific claim,
+    which is named first.  Not missing flows: a bath conductivity and a tapping gain (they change
+    what the voltage and the crane scale read), a feed that delivers less (its alumina carries AlF3
+    and cryolite with it: three balances) and an AlF3-to-cryolite transfer (two)."""
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    x, u = random_operating_points(np.random.default_rng(0), 20)
+    chi2 = {"x6": 1.0, "U_cell": 1.0}
+    freezing = _fitted(model, hypotheses, "part:bath_freezing_heat", -20570.0, 5000.0, chi2)
+    assert balance_moved(freezing.corrected, model, x, u) == "bath_energy"
+    assert ranked_fits([freezing], model, x, u, PENALTY).verdict == (
+        "named: term:bath_energy, fitted as part:bath_freezing_heat"
+    )
+    for key, coefficient in (
+        ("part:bath_conductivity", -0.1),
+        ("input:u4", -0.1),
+        ("input:u1", -0.08),
+        ("transfer:alf3_mass->cryolite_mass", 0.001),
+    ):
+        assert balance_moved(_fitted(model, hypotheses, key, coefficient, 5000.0, chi2).corrected, model, x, u) is None

@@ -6,11 +6,12 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ...physics import PART_ORDER, PROPERTIES, CellModel
+from ...observe import observe
+from ...physics import BALANCES, PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
 from .hypotheses import PREFERENCE, Hypothesis
 
-__all__ = ["naming_order", "removal", "same_physics"]
+__all__ = ["balance_moved", "naming_order", "removal", "same_physics"]
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
 SAME_PHYSICS = 0.05
@@ -68,3 +69,28 @@ def same_physics(a: CellModel, b: CellModel, model: CellModel, x: np.ndarray, u:
     difference = np.linalg.norm(np.nan_to_num((da - db) / scale))
     size = max(np.linalg.norm(np.nan_to_num(da / scale)), np.linalg.norm(np.nan_to_num(db / scale)), 1e-300)
     return bool(difference / size < SAME_PHYSICS)
+
+
+#: what a sensor reads through the model's parts, not as a state: a correction that changes one of
+#: these is not a flow missing from a balance, whatever it does to the rates
+DERIVED_READINGS = ("U_cell", "m_tap")
+
+
+def balance_moved(corrected: CellModel, model: CellModel, x: np.ndarray, u: np.ndarray) -> str | None:
+    """The balance whose rate alone ``corrected`` changes from ``model``'s at the states x (..., 8) and
+    inputs u (..., 5), where it changes no reading computed from the parts (:data:`DERIVED_READINGS`):
+    then it is, to any measurement, that much flow missing from that balance (a constant change of
+    the bath's heat of freezing is a heat loss from the bath).  The other states' changes are
+    compared in units of how much each state's rate varies over x and u; None where they are not
+    below :data:`SAME_PHYSICS` of the one changed, or the readings change."""
+    with np.errstate(all="ignore"):
+        base = model.rhs(x, u).reshape(-1, 8)
+        change = corrected.rhs(x, u).reshape(-1, 8) - base
+        readings = (observe(m, x, u, DERIVED_READINGS) for m in (model, corrected))
+        if not np.allclose(*readings, rtol=1e-9, atol=0.0, equal_nan=True):
+            return None
+    size = np.linalg.norm(np.nan_to_num(change / (np.nanstd(base, axis=0) + 1e-300)), axis=0)
+    moved = int(size.argmax())
+    if size[moved] == 0 or np.delete(size, moved).max() >= SAME_PHYSICS * size[moved]:
+        return None
+    return next(balance for balance, (state, _) in BALANCES.items() if state == f"x{moved + 1}")

@@ -15,14 +15,15 @@ channel sampled most (the voltage's 17 000 samples a cell against six of the met
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
 from ...physics import CellModel
-from ..core.hypotheses import Hypothesis
+from ..core.hypotheses import Hypothesis, candidate_hypotheses
 from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from ..core.naming import naming_order, same_physics
+from ..core.naming import balance_moved, naming_order, same_physics
 from .observations import Observations
 from .observed import PRIOR_STD
 from .shooting import Segments, Shooting, ShootingFit, channel_excess, shooting_fit
@@ -253,11 +254,14 @@ class Ranking:
     """Fitted forms that pay their terms (positive BIC gain), best first (``order``); of those the first
     is not told apart from (within :data:`MARGIN` of its BIC gain, at noise), ``equivalent`` are the
     same physics as it (itself included), in the order they are named (:func:`..core.naming.naming_order`:
-    the cause before its consequences, an input before a part), and ``rivals`` are not."""
+    the cause before its consequences, an input before a part), and ``rivals`` are not; ``names``: the
+    keys named, in that order, with the flow missing from a balance that the first amounts to
+    (:func:`..core.naming.balance_moved`) where no fit of it is among them."""
 
     order: list[FittedForm]
     equivalent: list[FittedForm]
     rivals: list[FittedForm]
+    names: list[str] = field(default_factory=list)
 
     @property
     def verdict(self) -> str:
@@ -268,10 +272,16 @@ class Ranking:
         if not first.fit.at_noise:
             flagged = [c for c, v in first.fit.chi2.items() if v > 1.0]
             return f"unexplained: the best correction, {first.hypothesis.key}, leaves {flagged} beyond noise"
-        same = [f.hypothesis.key for f in self.equivalent]
+        same = self.names
         if self.rivals:
             return f"undecided among {same + [f.hypothesis.key for f in self.rivals]}"
-        return f"named: {same[0]}" + (f" (the same physics: {same[1:]})" if len(same) > 1 else "")
+        fitted = self.equivalent[0].hypothesis.key
+        others = [key for key in same[1:] if key != fitted]
+        return (
+            f"named: {same[0]}"
+            + (f", fitted as {fitted}" if same[0] != fitted else "")
+            + (f" (the same physics: {others})" if others else "")
+        )
 
 
 def ranked_fits(fits: Sequence[FittedForm], model: CellModel, x: np.ndarray, u: np.ndarray, penalty: float) -> Ranking:
@@ -284,15 +294,25 @@ def ranked_fits(fits: Sequence[FittedForm], model: CellModel, x: np.ndarray, u: 
     cell's record cannot show the effect, nothing is named.  Fits that leave every channel at
     its noise (:attr:`.shooting.ShootingFit.at_noise`) come first, by BIC gain: differences in the
     excess there are noise.  The rest follow by their excess (to 0.1 noise variances), then BIC gain;
-    where the first is one of them, nothing is told apart (the outcome is unexplained)."""
+    where the first is one of them, nothing is told apart (the outcome is unexplained).  Where the
+    first changes one balance's rate alone, the flow missing from that balance is named with it, and
+    first where :func:`..core.naming.naming_order` says so: on top_heat_loss a constant 20.6 kW taken
+    from the bath's heat of freezing was the best fit of the bath's heat loss."""
     order = sorted(
         [f for f in fits if f.bic_gain > 0 and f.cell_gains.min() > len(f.features) * penalty / len(f.cell_gains)],
         key=lambda f: (not f.fit.at_noise, -f.bic_gain if f.fit.at_noise else round(f.fit.excess, 1), -f.bic_gain),
     )
     if not order or not order[0].fit.at_noise:
-        return Ranking(order, order[:1], [])
+        return Ranking(order, order[:1], [], [f.hypothesis.key for f in order[:1]])
     first = order[0]
     close = [f for f in order if f.fit.at_noise and first.bic_gain - f.bic_gain < MARGIN]
     same = [f for f in close if f is first or same_physics(f.corrected, first.corrected, model, x, u)]
-    named = naming_order(same, (), model.reads(x[:1], u[:1]), terms=lambda f: len(f.features))
-    return Ranking(order, named, [f for f in close if f not in same])
+    reads = model.reads(x[:1], u[:1])
+    named = naming_order(same, (), reads, terms=lambda f: len(f.features))
+    keys = [f.hypothesis.key for f in named]
+    balance = balance_moved(first.corrected, model, x, u)
+    if balance is not None and f"term:{balance}" not in keys:
+        flow = next(h for h in candidate_hypotheses(model) if h.key == f"term:{balance}")
+        items = [*named, SimpleNamespace(hypothesis=flow, features=first.features)]
+        keys = [f.hypothesis.key for f in naming_order(items, (), reads, terms=lambda f: len(f.features))]
+    return Ranking(order, named, [f for f in close if f not in same], keys)
