@@ -33,7 +33,7 @@ from costa.discover.core.library import constant_inputs
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.form_screen import FittedForm, grown_form, ranked_fits, screen_forms
 from costa.discover.sparse.pipeline import observations
-from costa.discover.sparse.shooting import shooting_fit
+from costa.discover.sparse.shooting import CONTINUITY_STAGES, shooting_fit
 from costa.physics import model_from_config
 from costa.sensors import declared_noise
 
@@ -53,6 +53,13 @@ def main() -> None:
     parser.add_argument("--fit-iterations", type=int, nargs=2, default=(8, 30), help="of each nonlinear fit")
     parser.add_argument("--hypotheses", nargs="+", help="screen these alone (default: every hypothesis)")
     parser.add_argument("--grow", type=int, default=0, help="rounds each fitted form may grow around its own fit")
+    parser.add_argument(
+        "--screen-stages",
+        type=float,
+        nargs="+",
+        default=CONTINUITY_STAGES,
+        help="the continuity stages of the fit the screen is linearised at (the fits use every stage)",
+    )
     parser.add_argument(
         "--true-model",
         action="store_true",
@@ -81,8 +88,13 @@ def main() -> None:
             h for h in candidate_hypotheses(model, constant_inputs(obs.u)) if h.key in (args.hypotheses or [h.key])
         ]
         started = time.perf_counter()
-        base, forms = screen_forms(model, hypotheses, obs, iterations=tuple(args.iterations))
+        base, forms = screen_forms(model, hypotheses, obs, iterations=tuple(args.iterations), stages=args.screen_stages)
         screened = time.perf_counter() - started
+        if tuple(args.screen_stages[-1:]) != CONTINUITY_STAGES[-1:]:  # the fits are compared at the last stage
+            later = CONTINUITY_STAGES[CONTINUITY_STAGES.index(args.screen_stages[-1]) + 1 :]
+            base = shooting_fit(
+                model, None, [], obs, iterations=tuple(args.iterations), starts=base.starts, stages=later
+            )
         by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
         print(
             f"{name} (cells {args.first_cell}-{args.first_cell + args.cells - 1} x {obs.y.shape[1] * obs.dt / 3600:g} h; "

@@ -26,7 +26,7 @@ from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
 from ..core.naming import balance_moved, naming_order, same_physics
 from .observations import Observations
 from .observed import PRIOR_STD
-from .shooting import Segments, Shooting, ShootingFit, channel_excess, shooting_fit
+from .shooting import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, channel_excess, shooting_fit
 
 __all__ = [
     "FittedForm",
@@ -156,12 +156,14 @@ def screen_forms(
     max_terms: int = 3,
     terms: Callable[[Hypothesis], list[Feature]] = screen_terms,
     starts: np.ndarray | None = None,
+    stages: Sequence[float] = CONTINUITY_STAGES,
 ) -> tuple[ShootingFit, list[ScreenedForm]]:
-    """The model's shooting fit (:func:`.shooting.shooting_fit`; from ``starts`` (n, S, 8) where given:
-    another fit's of the same model), and each hypothesis' closed form (at most ``max_terms`` of its
-    ``terms``) with its predicted gain and channels, best BIC gain first."""
-    fitted = shooting_fit(model, None, [], obs, segment_s, iterations, starts)
-    base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts)
+    """The model's shooting fit through the continuity ``stages`` (:func:`.shooting.shooting_fit`; from
+    ``starts`` (n, S, 8) where given: another fit's of the same model), and each hypothesis' closed
+    form (at most ``max_terms`` of its ``terms``) with its predicted gain and channels, linearised at
+    that fit, best BIC gain first."""
+    fitted = shooting_fit(model, None, [], obs, segment_s, iterations, starts, stages=stages)
+    base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts, looseness=stages[-1])
     base.out, base.ends, base.res, base.cost = base.evaluate(base.starts, np.zeros(0))
     seg = base.segments
     rows = base.starts
@@ -216,10 +218,11 @@ def grown_form(
     features = list(features)
     fit = shooting_fit(model, hypothesis, features, obs, segment_s, iterations)
     penalty = float(np.log(int(np.isfinite(obs.y).sum())))
+    last = CONTINUITY_STAGES[-1:]
     for _ in range(rounds):
         corrected = hypothesis.corrected(model, features, fit.theta)
         _, (form,) = screen_forms(
-            corrected, [hypothesis], obs, segment_s, iterations, terms=richer_terms, starts=fit.starts
+            corrected, [hypothesis], obs, segment_s, iterations, terms=richer_terms, starts=fit.starts, stages=last
         )
         known = {f.name for f in features}
         added = [f for f in form.features if f.name not in known]
@@ -227,7 +230,7 @@ def grown_form(
             break
         theta = np.append(fit.theta, np.zeros(len(added)))
         trial = shooting_fit(
-            model, hypothesis, features + added, obs, segment_s, (0, iterations[1]), starts=fit.starts, theta=theta
+            model, hypothesis, features + added, obs, segment_s, (0, iterations[1]), fit.starts, theta, last
         )
         if fit.cost - trial.cost <= penalty * len(added):
             break

@@ -220,8 +220,7 @@ def shooting_fit(
     corrected model's filtered states (:func:`filtered_starts`; the first fit's where the filter's
     are lost), the better fit kept (fewer segments lost, then the lower cost); all that at the
     continuity of the first of ``stages``, then each later stage from the last one's fit
-    (:data:`CONTINUITY_STAGES`).  Given ``starts`` (n, S, 8) (another fit's), the last stage alone
-    from them."""
+    (:data:`CONTINUITY_STAGES`).  Given ``starts`` (n, S, 8) (another fit's), the ``stages`` from them."""
 
     def placed(start, theta, looseness, placing=0):
         return Shooting.placed(model, hypothesis, features, obs, segment_s, placing, start, theta, looseness)
@@ -230,16 +229,17 @@ def shooting_fit(
         return fit.result(fit.run(theta, iterations[1], hold_theta=False))
 
     if starts is not None:
-        return run(*placed(starts, theta, stages[-1]))
-    best = run(*placed(None, theta, stages[0], iterations[0]))
-    corrected = model if hypothesis is None else hypothesis.corrected(model, features, best.theta)
-    again = filtered_starts(corrected, obs, segment_s).reshape(-1, 8)
-    fit, theta = placed(again, best.theta, stages[0])
-    if not fit.active.all():  # where the filter's states are lost, the first fit's starts serve
-        again = np.where(fit.active[:, None], again, best.starts.reshape(-1, 8))
+        best = run(*placed(starts, theta, stages[0]))
+    else:
+        best = run(*placed(None, theta, stages[0], iterations[0]))
+        corrected = model if hypothesis is None else hypothesis.corrected(model, features, best.theta)
+        again = filtered_starts(corrected, obs, segment_s).reshape(-1, 8)
         fit, theta = placed(again, best.theta, stages[0])
-    refit = run(fit, theta)
-    best = refit if (refit.lost, refit.cost) < (best.lost, best.cost) else best
+        if not fit.active.all():  # where the filter's states are lost, the first fit's starts serve
+            again = np.where(fit.active[:, None], again, best.starts.reshape(-1, 8))
+            fit, theta = placed(again, best.theta, stages[0])
+        refit = run(fit, theta)
+        best = refit if (refit.lost, refit.cost) < (best.lost, best.cost) else best
     for looseness in stages[1:]:
         best = run(*placed(best.starts, best.theta, looseness))
     return best
