@@ -124,7 +124,9 @@ def main() -> None:
                   f"{seconds[-1]:5.1f} s")  # fmt: skip
         if fitted:
             hourly = obs.u[:, :: round(3600 / obs.dt)][:, : base.starts.shape[1]]
-            ranking = ranked_fits(fitted, model, base.starts.reshape(-1, 8), hourly.reshape(-1, 5), penalty)
+            ranking = ranked_fits(
+                fitted, model, base.starts.reshape(-1, 8), hourly.reshape(-1, 5), penalty, base.excess
+            )
             keys = [f.hypothesis.key for f in ranking.order]
             print(f"  ranked: {keys}; accepted ranks {_rank(keys, case.accepted)}")
             print(f"  verdict: {ranking.verdict}")
