@@ -255,10 +255,10 @@ class FittedForm:
     def form_incomplete(self, excess_before: float, settings: DiscoverySettings) -> bool:
         """Whether the fit, not at its noise, leaves only a small error of its closed form: it removes
         the ``form_incomplete`` share of the uncorrected fit's excess (``excess_before``) and leaves no
-        channel more than ``form_excess`` noise variances beyond 1, as the filter route asks
+        channel beyond its noise by more than ``form_excess`` noise variances, as the filter route asks
         (:class:`..core.settings.DiscoverySettings`).  The voltage's 34 000 samples flag 1.03; on
         tapping_shortfall the true model's own fit left it at 1.06 after 30 iterations."""
-        left = max((v - 1.0 for v in self.fit.chi2.values()), default=0.0)
+        left = max((v - 1.0 for v in self.fit.beyond_noise.values()), default=0.0)
         removed = 1.0 - self.fit.excess / excess_before if excess_before > 0 else 0.0
         return not self.fit.at_noise and removed >= settings.form_incomplete and left <= settings.form_excess
 
@@ -285,14 +285,14 @@ class Ranking:
             return "nothing: no fit pays its terms"
         first = self.order[0]
         if not (first.fit.at_noise or self.incomplete):
-            flagged = [c for c, v in first.fit.chi2.items() if v > 1.0]
+            flagged = list(first.fit.beyond_noise)
             return f"unexplained: the best correction, {first.hypothesis.key}, leaves {flagged} beyond noise"
         same = self.names
         if self.rivals:
             return f"undecided among {same + [f.hypothesis.key for f in self.rivals]}"
         fitted = self.equivalent[0].hypothesis.key
         others = [key for key in same[1:] if key != fitted]
-        left = {c: round(v, 2) for c, v in first.fit.chi2.items() if v > 1.0}
+        left = {c: round(v, 2) for c, v in first.fit.beyond_noise.items()}
         return (
             f"named: {same[0]}"
             + (f", fitted as {fitted}" if same[0] != fitted else "")

@@ -97,11 +97,16 @@ class ShootingFit:
         return channel_excess(self.chi2)
 
     @property
+    def beyond_noise(self) -> dict[str, float]:
+        """The channels whose mean square lies more than :data:`NOISE_BAND` sampling stds above 1 (the
+        mean of n squared unit normals has std sqrt(2 / n)), with it."""
+        return {c: v for c, v in self.chi2.items() if v > 1.0 + NOISE_BAND * np.sqrt(2.0 / max(self.samples[c], 1))}
+
+    @property
     def at_noise(self) -> bool:
-        """Whether every channel's mean square is within :data:`NOISE_BAND` sampling stds of 1 (the
-        mean of n squared unit normals has std sqrt(2 / n)): the closed form leaves nothing the noise
-        does not explain, on any channel."""
-        return all(v <= 1.0 + NOISE_BAND * np.sqrt(2.0 / max(self.samples[c], 1)) for c, v in self.chi2.items())
+        """Whether no channel is :attr:`beyond_noise`: the closed form leaves nothing the noise does not
+        explain, on any channel."""
+        return not self.beyond_noise
 
 
 def channel_excess(chi2: dict[str, float]) -> float:
