@@ -19,19 +19,24 @@ from costa.sensors import declared_noise, sensor_sets_from_config
 from costa.simulate import SimulationSettings, simulate_set
 
 
+def _plant_record(default_config, case: str, hours: float, key: str):
+    """The first 2 cells x ``hours`` of ``case``'s plant record, the full model and its hypothesis ``key``."""
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=hours, trajectories=2, held_out_trajectories=1)
+    train, _ = case_tables(config, case, "plant")
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), case)
+    model = starting_model(config, "full")
+    return obs, model, next(h for h in candidate_hypotheses(model) if h.key == key)
+
+
 @pytest.mark.integration
 def test_a_planted_conductivity_law_is_recovered_from_a_short_plant_record(default_config):
     """The bath conductivity falls as exp(-3.5 (c3 - 0.11)) (shipped case conductivity_alf3); from
     2 cells x 24 h of the plant sensors (voltage every 10 s, bath temperature hourly, AlF3 and metal
     every 8 h), the uncorrected model's conductivity corrected by theta1 own (c3 - 0.11) +
     theta2 own (c3 - 0.11)^2 reaches the truth's expansion (-3.5, +6.125) from theta = 0, with
-    starts read from the data alone, and every channel ends at its noise (about 30 s)."""
-    config = copy.deepcopy(default_config)
-    config["discovery"]["sensor_sets"]["plant"].update(hours=24, trajectories=2, held_out_trajectories=1)
-    train, _ = case_tables(config, "conductivity_alf3", "plant")
-    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "conductivity_alf3")
-    model = starting_model(config, "full")
-    hypothesis = next(h for h in candidate_hypotheses(model) if h.key == "part:bath_conductivity")
+    starts read from the data alone, and every channel ends at its noise (about a minute)."""
+    obs, model, hypothesis = _plant_record(default_config, "conductivity_alf3", 24, "part:bath_conductivity")
     terms = {f.name: f for f in hypothesis.features(rich=True)}
     fit = shooting_fit(model, hypothesis, [terms["own*(c3 - 0.11)"], terms["own*(c3 - 0.11)^2"]], obs)
     assert fit.lost == 0
@@ -46,12 +51,7 @@ def test_a_missing_heat_loss_is_fitted_through_looser_continuity_not_at_the_filt
     through the continuity stages (100, 10, 1 x the filter's process noise) comes within 3 % of the
     constant with every channel at its noise; fitted at the filter's continuity alone, the segments
     are tied too tightly to move from the data's placement, and it stops short (about a minute each)."""
-    config = copy.deepcopy(default_config)
-    config["discovery"]["sensor_sets"]["plant"].update(hours=12, trajectories=2, held_out_trajectories=1)
-    train, _ = case_tables(config, "top_heat_loss", "plant")
-    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "top_heat_loss")
-    model = starting_model(config, "full")
-    hypothesis = next(h for h in candidate_hypotheses(model) if h.key == "term:bath_energy")
+    obs, model, hypothesis = _plant_record(default_config, "top_heat_loss", 12, "term:bath_energy")
     terms = {f.name: f for f in hypothesis.features()}
     form = [terms["1"], terms["(x6 - 970)"]]
     staged = shooting_fit(model, hypothesis, form, obs)
