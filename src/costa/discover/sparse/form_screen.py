@@ -268,7 +268,7 @@ class FittedForm:
 @dataclass(frozen=True)
 class Ranking:
     """Fitted forms that pay their terms (positive BIC gain), best first (``order``); of those the first
-    is not told apart from (within :data:`MARGIN` of its BIC gain, at noise), ``equivalent`` are the
+    is not told apart from (within :data:`MARGIN` of its BIC gain, at noise or form incomplete), ``equivalent`` are the
     same physics as it (itself included), in the order they are named (:func:`..core.naming.naming_order`:
     the cause before its consequences, an input before a part), and ``rivals`` are not; ``names``: the
     keys named, in that order, with the flow missing from a balance that the first amounts to
@@ -321,12 +321,12 @@ def ranked_fits(
     cell's record cannot show the effect, nothing is named.  Fits that leave every channel at
     its noise (:attr:`.shooting.ShootingFit.at_noise`), or whose form is only incomplete against the
     uncorrected fit's excess ``excess_before`` (:meth:`FittedForm.form_incomplete`), come first, by
-    BIC gain: differences in the excess there are noise.  The rest follow by their excess (to 0.1 noise variances), then BIC gain;
-    where the first is one of them, nothing is told apart (the outcome is unexplained).  Where the
+    BIC gain: differences in the excess there are noise.  The rest follow by their excess (to 0.1
+    noise variances), then BIC gain; where the first is one of them, nothing is told apart (the
+    outcome is unexplained).  Where the
     first changes one balance's rate alone, the flow missing from that balance is named with it, and
     first where :func:`..core.naming.naming_order` says so: on top_heat_loss a constant 20.6 kW taken
     from the bath's heat of freezing was the best fit of the bath's heat loss."""
-
     settings = settings or DiscoverySettings()
 
     def good(f: FittedForm) -> bool:

@@ -18,8 +18,9 @@ alone do not place the unmeasured states (the ledge, the bath mass, the ledge's 
 wall's temperatures), and from them the true model's own fit stopped in a local minimum on 4
 of 13 plant records.  So the fit is repeated from the smoothed states of the model so
 corrected (:func:`filtered_starts`), and the better kept: from there the true model reaches
-the noise on all 13 (at the first stage's continuity, below).  The data's placement serves where the model is too far off for its
-filter to hold (the ablated bath conductivity's, on conductivity_alf3, loses both cells).
+the noise on all 13 (at the first stage's continuity, below).  The data's placement serves
+where the model is too far off for its filter to hold (the ablated bath conductivity's, on
+conductivity_alf3, loses both cells).
 
 All that at a continuity 100 times the filter's process noise, where the segments are free
 enough to leave the data's placement; then again at 10 and at 1 times, each from the last
