@@ -166,7 +166,7 @@ def screen_forms(
     the uncorrected model is far from the data, the linear prediction overshoots, and the right
     hypothesis ranked lower on 4 of 5 plant records (alumina_feeder 22nd by BIC gain against 6th)."""
     fitted = shooting_fit(model, None, [], obs, segment_s, iterations, starts, stages=stages)
-    base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts, looseness=stages[-1])
+    base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts, None, stages[-1])
     base.out, base.ends, base.res, base.cost = base.evaluate(base.starts, np.zeros(0))
     seg = base.segments
     rows = base.starts

@@ -272,19 +272,10 @@ class Shooting:
 
     @classmethod
     def placed(
-        cls,
-        model,
-        hypothesis,
-        features,
-        obs,
-        segment_s,
-        iterations,
-        starts=None,
-        theta=None,
-        looseness=CONTINUITY_STAGES[-1],
+        cls, model, hypothesis, features, obs, segment_s, iterations, starts, theta, looseness
     ) -> tuple[Shooting, np.ndarray]:
-        """The fit of :func:`shooting_fit` after its first stage (or at ``starts`` (n, S, 8)), and theta
-        (0 if None), at the continuity ``looseness`` (:data:`CONTINUITY_STAGES`)."""
+        """The fit of :func:`shooting_fit` after its first stage (or at ``starts`` (n, S, 8) where not
+        None), and theta (0 if None), at the continuity ``looseness`` (:data:`CONTINUITY_STAGES`)."""
         segments = Segments(model, hypothesis, features, obs, max(1, round(segment_s / obs.dt)))
         theta = np.zeros(len(features)) if theta is None else np.asarray(theta, dtype=float)
         if starts is not None:
@@ -296,9 +287,7 @@ class Shooting:
         return fit, theta
 
     @classmethod
-    def started(
-        cls, segments: Segments, starts: np.ndarray, theta: np.ndarray, looseness: float = CONTINUITY_STAGES[-1]
-    ) -> Shooting:
+    def started(cls, segments: Segments, starts: np.ndarray, theta: np.ndarray, looseness: float) -> Shooting:
         """A fit from ``starts`` (R, 8) (NaN: a segment left out), its lost segments left out."""
         lost = ~np.isfinite(starts).all(1)
         fit = cls(segments, np.where(lost[:, None], NOMINAL_STATE, starts), looseness)
