@@ -78,7 +78,7 @@ def test_a_correct_model_passes_every_channel_test_on_a_pot_lines_daily_samples(
     cells run by the pot line's controllers, filtered with the model that made them."""
     from costa.discover.pipeline import settings_from_config
     from costa.discover.sparse.pipeline import checked_observations
-    from costa.discover.sparse.search import _tests
+    from costa.discover.sparse.search import channel_tests
     from costa.sensors import measure, sensor_sets_from_config
 
     sensors = sensor_sets_from_config(default_config["discovery"]["sensor_sets"])["pot_line"]
@@ -89,6 +89,6 @@ def test_a_correct_model_passes_every_channel_test_on_a_pot_lines_daily_samples(
     declared = {s.channel: s.noise for s in sensors.sensors}
     discovery = settings_from_config(default_config)
     obs = checked_observations(table, declared, "pot line", discovery).with_start(model)
-    tests, _ = _tests(model, obs, discovery)
+    tests, _ = channel_tests(model, obs, discovery)
     assert {t.channel for t in tests} == {"U_pot", "x6", "c3", "x5"}
     assert not [t for t in tests if t.flagged], tests

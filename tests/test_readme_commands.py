@@ -276,11 +276,6 @@ def check_benchmark(command, smoke_run, tmp_path):
     assert result.returncode == 0, result.stderr[-4000:]
 
 
-def check_candidate_benchmark(command, smoke_run, tmp_path):
-    result = run_command(smoke_run, f"{command} --cells 2 --hours 1 --candidates 4", timeout=600)
-    assert result.returncode == 0 and "equal to rounding" in result.stdout, result.stderr[-4000:]
-
-
 def check_shooting_benchmark(command, smoke_run, tmp_path):
     result = run_command(
         smoke_run, f"{command} --cases tapping_shortfall --cells 1 --hours 1 --iterations 1 1", timeout=600
@@ -360,7 +355,6 @@ RUN_CHECKS = {
     'python benchmarks/bound_variants.py --reps "" replicates/r1/': check_bound_variants,
     "snakemake --report results/snakemake_report.html": check_report,
     "python benchmarks/train_speed.py": check_benchmark,
-    "python benchmarks/candidate_scores.py": check_candidate_benchmark,
     "python benchmarks/shooting_fits.py": check_shooting_benchmark,
     "python benchmarks/form_screen.py": check_form_screen_benchmark,
     "python benchmarks/measure_next_loop.py": check_measure_next_loop,

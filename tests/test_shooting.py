@@ -13,7 +13,7 @@ from costa.discover.cases.unshipped import find_case
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.pipeline import observations
-from costa.discover.sparse.shooting import damped_step, filtered_starts, shooting_fit
+from costa.discover.sparse.shooting import Segments, damped_step, filtered_starts, shooting_fit
 from costa.physics import model_from_config
 from costa.sensors import declared_noise, sensor_sets_from_config
 from costa.simulate import SimulationSettings, simulate_set
@@ -102,3 +102,23 @@ def test_the_filter_places_the_bath_mass_that_no_sensor_reads(default_config):
     assert (abs(bath_true[1] - 14000.0) > 2500).all()
     assert abs(bath - bath_true).max() < 1000 and abs(bath[1] - bath_true[1]).max() < 300
     assert abs(starts[..., 0] - truth[..., 0]).max() < 600
+
+
+def test_each_segments_path_from_the_true_hourly_states_retraces_the_simulation(default_config):
+    """A segment integrated from the simulated state at its first step, under the model and inputs
+    that made the record, passes through every simulated state of its hour (to rounding): the path
+    the shooting route hands to what-to-measure-next is the model's own trajectory."""
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=3, trajectories=2, held_out_trajectories=1)
+    train, _ = case_tables(config, "top_heat_loss", "plant")
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "top_heat_loss")
+    true, _ = find_case("top_heat_loss").models(model_from_config(config["physics"])[0])
+    plant = sensor_sets_from_config(config["discovery"]["sensor_sets"])["plant"]
+    settings = SimulationSettings.from_config(config["simulation"])
+    settings = replace(settings, steps=plant.steps(settings.dt, settings.steps), operation=plant.operation)
+    simulated, _ = simulate_set(true, settings, 2, config["seed"], 0, "discovery/top_heat_loss/train")
+    segments = Segments(true, None, [], obs, round(3600 / obs.dt))
+    x = simulated.x[:, : segments.count * segments.steps]
+    path = segments.path(x[:, :: segments.steps].reshape(-1, 8), np.zeros(0))
+    error = np.abs(path - x).max(axis=(0, 1)) / np.abs(x).max(axis=(0, 1))
+    assert (error < 1e-9).all(), error

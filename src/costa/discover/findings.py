@@ -86,7 +86,7 @@ def _coefficients(features, coefficients, intervals_by_level, inclusion) -> list
             "term": f.name,
             "value": float(c),
             **{f"ci{100 * level:.0f}": list(iv[j]) for level, iv in intervals_by_level.items()},
-            "inclusion": inclusion.get(f.name, 0.0),
+            "inclusion": None if inclusion is None else inclusion.get(f.name, 0.0),
         }
         for j, (f, c) in enumerate(zip(features, coefficients, strict=True))
     ]
@@ -124,6 +124,7 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
             for t in r.tests
         ],  # fmt: skip
         "flagged": r.flagged,
+        "decided_by": DECIDED_BY[r.route] if r.flagged else None,
         "verdict": r.verdict,
         "identifiable": r.identifiable,
         "unexplained_after_correction": r.unexplained,
@@ -159,11 +160,7 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
     }
     if r.chosen is not None:
         correction = _partial_candidate(r.chosen, r.model)
-        correction["kept_if"] = (
-            "selected in at least half the bootstrap resamples of the regression on the smoothed delta "
-            f"(or a flow input, refined beside them), and its {KEEP_LEVEL:.0%} interval from the fit to the "
-            f"measured channels (the refined posterior; the {LEVELS[0]:.0%} interval lies inside it) excludes zero"
-        )
+        correction["kept_if"] = KEPT_IF[r.route]
         intervals = {level: r.chosen.intervals(level) for level in LEVELS}
         correction["coefficients"] = _coefficients(
             r.chosen.features, r.chosen.coefficients, intervals, r.chosen.inclusion
@@ -172,7 +169,31 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
         found["correction"] = correction
         if r.named is not None:
             found["named"] = correction
+        if r.named is not None and r.named != r.chosen.hypothesis:  # the flow missing from the balance it moves
+            h = r.named
+            found["named"] = correction | {
+                "hypothesis": h.key, "kind": h.kind, "target": h.target, "description": h.describe(r.model),
+                "fitted_as": r.chosen.hypothesis.key,
+            }  # fmt: skip
     return found
+
+
+#: how a round on partial measurements was decided (:attr:`.sparse.search.PartialRound.route`)
+DECIDED_BY = {
+    "filter": "each hypothesis' free delta smoothed by the filter on every cell, its closed form regressed on it and "
+    "refined on the measured channels, the corrected models compared by the BIC gain of their filter's likelihood",
+    "shooting": "multiple shooting on the first cells: every hypothesis' closed form of at most 3 terms screened "
+    "linearised at the uncorrected model's fit, the best fitted through the continuity stages to the filter's process "
+    "noise, compared by BIC gain (each cell paying its share of the terms) and each channel's noise band",
+}
+#: the rule a term of the chosen closed form passed, by route
+KEPT_IF = {
+    "filter": "selected in at least half the bootstrap resamples of the regression on the smoothed delta (or a flow "
+    f"input, refined beside them), and its {KEEP_LEVEL:.0%} interval from the fit to the measured channels (the "
+    f"refined posterior; the {LEVELS[0]:.0%} interval lies inside it) excludes zero",
+    "shooting": "chosen by forward selection on the screen's normal equations while it lowers the cost by more than "
+    "log(samples) (BIC); the intervals are the fit's Gauss-Newton posterior, the states eliminated",
+}
 
 
 GLOSSARY = "docs/glossary.md"
@@ -420,7 +441,7 @@ def _coefficient_lines(n: Mapping[str, Any]) -> list[str]:
     lines += [
         f"| `{c['term']}` | {c['value']:.4g} | "
         + " | ".join(f"[{c[level][0]:.4g}, {c[level][1]:.4g}]" for level in levels)
-        + f" | {c['inclusion']:.0%} |"
+        + (" | — |" if c["inclusion"] is None else f" | {c['inclusion']:.0%} |")
         for c in n["coefficients"]
     ]
     return lines + ["", f"A term is kept if {n['kept_if']}."]
@@ -443,12 +464,16 @@ def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
         for t in r["channels_tested"]
     ]
     lines += ["", f"**Verdict**: {r['verdict']}.", ""]
+    if r.get("decided_by"):
+        lines += [f"Decided by {r['decided_by']}.", ""]
     correction = r.get("correction")
     if correction:
         reason = "not identifiable" if not r["identifiable"] else "unexplained"
         title = "Named" if r["named"] else f"Best-fitting correction (applied, not named: {reason})"
         title += " (form incomplete)" if r.get("form_incomplete") else ""
-        lines += [f"**{title}**: `{correction['hypothesis']}`: {correction['description']}", "",
+        shown = r["named"] or correction
+        fitted = f" (fitted as `{shown['fitted_as']}`)" if shown.get("fitted_as") else ""
+        lines += [f"**{title}**: `{shown['hypothesis']}`{fitted}: {shown['description']}", "",
                   f"Correction [{correction['unit']}]: `{correction['closed_form']}`", ""]  # fmt: skip
         lines += _coefficient_lines(correction)
     if r["equivalent"]:

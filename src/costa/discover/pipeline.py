@@ -96,8 +96,17 @@ def settings_from_config(config: Mapping) -> DiscoverySettings:
 
 
 def search_settings(config: Mapping, name: str) -> DiscoverySettings:
-    """How the discovery of data set ``name`` decides, with its own random stream."""
-    return replace(settings_from_config(config), seed=seeds.stream(config["seed"], 0, f"discovery/{name}/search"))
+    """How the discovery of data set ``name`` decides, with its own random stream.  A shipped case
+    under a sensor set (``name`` "case/sensors") or your data (``discovery.user_data``) take that
+    set's or your ``shooting_cells``: a pot line's record is then decided by multiple shooting."""
+    user = config["discovery"]["user_data"]
+    if user and user["name"] == name:
+        shooting = user.get("shooting_cells", 0)
+    else:
+        sensors = config["discovery"]["sensor_sets"].get(name.rpartition("/")[2], {}) if "/" in name else {}
+        shooting = sensors.get("shooting_cells", 0)
+    seed = seeds.stream(config["seed"], 0, f"discovery/{name}/search")
+    return replace(settings_from_config(config), seed=seed, shooting_cells=shooting)
 
 
 def run_discovery(

@@ -41,4 +41,9 @@ class DiscoverySettings:
     partial_candidates: int = 4  # ... the best so many get a closed form, fitted and scored on all trajectories
     # ... random-walk steps of a hypothesis' delta, in noise stds per window (0: a constant delta)
     walks: tuple[float, ...] = (0.0, 0.3, 3.0)
+    # a pot line's record (the first state searched): the first round decided by multiple shooting on the
+    # first so many cells (0: by the filter, as on other records), fitting the best shooting_refine of
+    # the screen by BIC gain and by the channels' predicted excess
+    shooting_cells: int = 0
+    shooting_refine: int = 3
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)

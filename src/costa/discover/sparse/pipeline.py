@@ -26,7 +26,17 @@ from .gap import measured_gap, measured_noise_floor
 from .observations import Observations, channel_noise
 from .observed import START_SEARCH_S, start_is_searched
 from .search import PartialRound, discover_partial, fit_share, screen_round
-from .split import read_fits, read_screen, write_fits, write_screen
+from .shooting_round import decide_by_shooting, fit_by_shooting, screen_by_shooting, uses_shooting
+from .split import (
+    read_fits,
+    read_screen,
+    read_shot_fits,
+    read_shot_screen,
+    write_fits,
+    write_screen,
+    write_shot_fits,
+    write_shot_screen,
+)
 
 __all__ = ["PartialResult", "fit_first_round", "observations", "run_partial_discovery", "screen_first_round"]
 
@@ -107,9 +117,13 @@ def screen_first_round(
     train: pd.DataFrame, start: CellModel, settings: DiscoverySettings, declared_noise: Mapping[str, float],
     source: str, path: str | Path,
 ) -> None:  # fmt: skip
-    """The first round's screen (:func:`.search.screen_round`), written to ``path`` for the fit jobs
-    and the gather (:mod:`.split`)."""
+    """The first round's screen (:func:`.search.screen_round`, or :func:`.shooting_round.screen_by_shooting`
+    where :func:`.shooting_round.uses_shooting`), written to ``path`` for the fit jobs and the gather
+    (:mod:`.split`)."""
     obs = checked_observations(train, declared_noise, source, settings).with_start(start)
+    if uses_shooting(settings, obs):
+        write_shot_screen(screen_by_shooting(start, obs, settings), path)
+        return
     screen = screen_round(start, obs, settings, np.random.default_rng(settings.seed), named=())
     write_screen(screen, obs.start, path)
 
@@ -119,11 +133,30 @@ def fit_first_round(
     source: str, screen_path: str | Path, job: int, jobs: int, path: str | Path,
 ) -> None:  # fmt: skip
     """Job ``job`` of ``jobs``: fit the screen's candidates job, job + jobs, ... and write them to ``path``."""
-    screen, searched = read_screen(screen_path, start)
-    obs = replace(checked_observations(train, declared_noise, source, settings), start=searched)
+    obs = checked_observations(train, declared_noise, source, settings)
     share = slice(job, None, jobs)
+    if uses_shooting(settings, obs):
+        screen = read_shot_screen(screen_path, start)
+        write_shot_fits(
+            fit_by_shooting(start, screen, obs, settings, share), range(len(screen.candidates))[share], path
+        )
+        return
+    screen, searched = read_screen(screen_path, start)
+    obs = replace(obs, start=searched)
     fits = fit_share(screen, start, obs, settings, False, share)
     write_fits(fits, range(len(screen.candidates))[share], path)
+
+
+def _shooting_round(
+    start: CellModel, obs: Observations, settings: DiscoverySettings, first_round: tuple | None
+) -> PartialRound:
+    """The round :mod:`.shooting_round` decides, from the jobs' records where given."""
+    if first_round is None:
+        screen = screen_by_shooting(start, obs.with_start(start), settings)
+        fits = fit_by_shooting(start, screen, obs, settings, slice(None))
+    else:
+        screen, fits = read_shot_screen(first_round[0], start), read_shot_fits(first_round[1])
+    return decide_by_shooting(start, screen, fits, obs, settings)
 
 
 def run_partial_discovery(
@@ -152,7 +185,9 @@ def run_partial_discovery(
         )
     evaluation, start_steps = _estimation_windows(evaluation, held, source)  # checked before the search runs
     started = time.perf_counter()
-    if first_round is None:
+    if uses_shooting(settings, obs):
+        rounds = [_shooting_round(start, obs, settings, first_round)]
+    elif first_round is None:
         obs = obs.with_start(start)
         rounds = discover_partial(start, obs, settings)
     else:

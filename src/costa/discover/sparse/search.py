@@ -75,6 +75,7 @@ __all__ = [
     "Screen",
     "PartialRound",
     "at_budget",
+    "channel_tests",
     "decide_round",
     "discover_partial",
     "distinct_physics",
@@ -102,7 +103,9 @@ class PartialCandidate(FittedTerms):
     features: list[Feature]
     coefficients: np.ndarray
     samples: np.ndarray  # bootstrap coefficients (resamples, terms)
-    inclusion: dict[str, float]
+    inclusion: (
+        dict[str, float] | None
+    )  # each term's share of the bootstrap resamples that selected it (None: no bootstrap)
     corrected: CellModel | None = None
     tests_after: list[ChannelTest] = field(default_factory=list)
     log_likelihood: np.ndarray | None = None  # the corrected model's, per trajectory (n,)
@@ -157,6 +160,8 @@ class PartialRound:
     at_budget: list[BudgetComparison] = field(default_factory=list)
     measure_next: list[Recommendation] = field(default_factory=list)
     form_tolerated: bool = False  # the chosen correction's form error is small (see :func:`_small_form_error`)
+    name: Hypothesis | None = None  # what the chosen correction is named as, where not its own hypothesis
+    route: str = "filter"  # how the round was decided: "filter" (this module) or "shooting" (:mod:`.shooting_round`)
 
     @property
     def flagged(self) -> list[str]:
@@ -176,12 +181,12 @@ class PartialRound:
     def named(self) -> Hypothesis | None:
         """The chosen explanation, where the measurements tell it from the others, no rival matches it
         with as many terms, and it explains the channels (all of them, or nearly all of their excess:
-        ``form incomplete``)."""
+        ``form incomplete``): its own hypothesis, or the flow missing from the one balance it moves (``name``)."""
         if self.chosen is None or not self.identifiable:
             return None
         if self.unexplained and not self.form_tolerated:
             return None
-        return self.chosen.hypothesis
+        return self.name or self.chosen.hypothesis
 
     @property
     def corrected(self) -> CellModel | None:
@@ -354,9 +359,11 @@ def _proportional(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(min(np.linalg.norm(a - b), np.linalg.norm(a + b)) < SAME_EFFECT)
 
 
-def _tests(
+def channel_tests(
     model: CellModel, obs: Observations, settings: DiscoverySettings, backward: bool = True
 ) -> tuple[list[ChannelTest], Smoothed]:
+    """The model's innovation tests of each measured channel after the settling steps, from its filter
+    (and smoother, where ``backward``) started at ``obs.start``."""
     smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward, obs.start)
     settled = smoothed.innovation[:, obs.settling_steps :]
     return innovation_tests(settled, obs.channels, settings.z_threshold, settings.min_excess), smoothed
@@ -391,7 +398,7 @@ def _fit(
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
     candidate.placed = obs.searched_again(corrected)
-    tests_after, after = _tests(corrected, candidate.placed, settings, backward=False)
+    tests_after, after = channel_tests(corrected, candidate.placed, settings, backward=False)
     flagged = [t.channel for t in tests if t.flagged]
     candidate.corrected, candidate.tests_after, candidate.log_likelihood = corrected, tests_after, after.log_likelihood
     candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
@@ -415,7 +422,7 @@ def _cut(candidate: PartialCandidate, budget: int, model: CellModel, settings: D
     if refined is not None:
         coefficients = refined[0]
     corrected = h.corrected(model, features, coefficients)
-    _, after = _tests(corrected, candidate.placed.searched_again(corrected), settings, backward=False)
+    _, after = channel_tests(corrected, candidate.placed.searched_again(corrected), settings, backward=False)
     return after.log_likelihood
 
 
@@ -482,7 +489,7 @@ def screen_round(
 ) -> Screen:
     """Test the channels; where one disagrees, screen every hypothesis and keep the best of each
     physics (steps 1-2 of the module docstring).  Draws the round's fitting seed from ``rng``."""
-    tests, base = _tests(model, obs, settings)
+    tests, base = channel_tests(model, obs, settings)
     states = base.mean[:, ::16, :8]
     if not any(t.flagged for t in tests):
         return Screen(tests, base.log_likelihood, states, [], 0)

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import islice
 
 import numpy as np
 
@@ -158,11 +159,26 @@ class Segments:
         self._theta = theta.reshape(len(x), self.terms)
         u = np.repeat(self.u, 1 + moved, 0)
         out = np.empty((len(x), self.steps, self.y.shape[-1]))
+        states = self._march(x, u)
         with np.errstate(all="ignore"):
-            for k in range(self.steps):
-                out[:, k] = observe(self.model, x, u[:, k], self.obs.channels)
+            for k, state in enumerate(islice(states, self.steps)):
+                out[:, k] = observe(self.model, state, u[:, k], self.obs.channels)
+        return out.reshape(rows, 1 + moved, self.steps, -1), next(states).reshape(rows, 1 + moved, 8)
+
+    def path(self, starts: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """The states (n, S x steps, 8) at every step of every segment, each from its start (R, 8),
+        under ``theta`` (P,)."""
+        self._theta = np.repeat(np.asarray(theta, dtype=float)[None], len(starts), 0)
+        states = np.stack(list(islice(self._march(starts, self.u), self.steps)), 1)
+        return states.reshape(self.n, self.count * self.steps, 8)
+
+    def _march(self, x: np.ndarray, u: np.ndarray):
+        """The states (B, 8) from ``x`` at each step of the inputs ``u`` (B, steps, 5), then after the last."""
+        for k in range(self.steps):
+            yield x
+            with np.errstate(all="ignore"):
                 x = rk4_step(self.model.rhs, x, u[:, k], self.obs.dt)
-        return out.reshape(rows, 1 + moved, self.steps, -1), x.reshape(rows, 1 + moved, 8)
+        yield x
 
     def misfit(self, out: np.ndarray) -> np.ndarray:
         """Measurement residuals (R, steps, C) in noise stds; 0 where not sampled."""

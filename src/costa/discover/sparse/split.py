@@ -2,7 +2,7 @@
 
 The screen (channel tests, every hypothesis screened) and each candidate's fit are the
 expensive steps of a round on a pot line's record, and the fits are independent given the
-screen.  The workflow runs the screen as one job, the fits as ``jobs`` jobs (job j fits
+screen, on either route (the filter's, :mod:`.search`, or shooting, :mod:`.shooting_round`).  The workflow runs the screen as one job, the fits as ``jobs`` jobs (job j fits
 candidates j, j + jobs, ...), and the discovery job gathers them, decides the round and
 runs any later round itself: ``--cores N`` or a cluster spreads one case.  The records
 written between them hold numbers only (a hypothesis by its key, a closed form by its terms'
@@ -21,11 +21,17 @@ from typing import Any
 from ...physics import CellModel
 from ..core.hypotheses import candidate_hypotheses
 from .estimator import ChannelTest
+from .form_screen import ScreenedForm
 from .likelihood import HypothesisScore
 from .observations import Observations
 from .search import PartialCandidate, Screen
+from .shooting import ShootingFit
+from .shooting_round import ShotFit, ShotScreen
 
-__all__ = ["read_fits", "read_screen", "write_fits", "write_screen"]
+__all__ = [
+    "read_fits", "read_screen", "read_shot_fits", "read_shot_screen", "write_fits", "write_screen",
+    "write_shot_fits", "write_shot_screen",
+]  # fmt: skip
 
 
 def _score_record(score) -> dict[str, Any]:
@@ -81,11 +87,8 @@ def read_fits(paths: Sequence[str | Path], model: CellModel, obs: Observations) 
     """Every fitted candidate of the fit jobs' records, in the screen's order, rebuilt on ``model``
     and the observations ``obs`` (each placed at the start it searched itself)."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    rows = sorted((row for path in paths for row in pickle.loads(Path(path).read_bytes())), key=lambda r: r[0])
-    if [index for index, _ in rows] != list(range(len(rows))):
-        raise ValueError(f"the fit records {list(map(str, paths))} do not hold each candidate once")
     fits = []
-    for _, fields in rows:
+    for _, fields in _rows(paths):
         score = _score(fields["score"], hypotheses)
         h = score.hypothesis
         library = {f.name: f for f in h.features(False)}
@@ -96,3 +99,60 @@ def read_fits(paths: Sequence[str | Path], model: CellModel, obs: Observations) 
             candidate.corrected = h.corrected(model, features, candidate.coefficients)
         fits.append(candidate)
     return fits
+
+
+def _form_record(form: ScreenedForm) -> dict[str, Any]:
+    fields = {f.name: getattr(form, f.name) for f in dataclasses.fields(form)}
+    return fields | {"hypothesis": form.hypothesis.key, "features": [f.name for f in form.features]}
+
+
+def _form(record: dict[str, Any], hypotheses: dict) -> ScreenedForm:
+    h = hypotheses[record["hypothesis"]]
+    library = {f.name: f for f in h.features(rich=True)}
+    return ScreenedForm(**(record | {"hypothesis": h, "features": tuple(library[n] for n in record["features"])}))
+
+
+def write_shot_screen(screen: ShotScreen, path: str | Path) -> None:
+    """The shooting route's screen (:func:`.shooting_round.screen_by_shooting`) as numbers."""
+    record = {
+        "tests": [dataclasses.asdict(t) for t in screen.tests],
+        "base": None if screen.base is None else dataclasses.asdict(screen.base),
+        "forms": [_form_record(f) for f in screen.forms],
+        "candidates": [screen.forms.index(f) for f in screen.candidates],
+    }
+    Path(path).write_bytes(pickle.dumps(record))
+
+
+def read_shot_screen(path: str | Path, model: CellModel) -> ShotScreen:
+    """The shooting route's screen, its hypotheses those of ``model``."""
+    record = pickle.loads(Path(path).read_bytes())
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    forms = [_form(f, hypotheses) for f in record["forms"]]
+    base = None if record["base"] is None else ShootingFit(**record["base"])
+    tests = [ChannelTest(**t) for t in record["tests"]]
+    return ShotScreen(tests, base, forms, [forms[i] for i in record["candidates"]])
+
+
+def write_shot_fits(fits: Sequence[ShotFit], indices: Sequence[int], path: str | Path) -> None:
+    """Shooting fits of the screen's candidates ``indices``, as numbers."""
+    records = [
+        (index, dataclasses.asdict(fit.fit), fit.covariance, [dataclasses.asdict(t) for t in fit.tests])
+        for index, fit in zip(indices, fits, strict=True)
+    ]
+    Path(path).write_bytes(pickle.dumps(records))
+
+
+def read_shot_fits(paths: Sequence[str | Path]) -> list[ShotFit]:
+    """Every shooting fit of the fit jobs' records, in the screen's candidates' order."""
+    return [
+        ShotFit(ShootingFit(**fit), covariance, [ChannelTest(**t) for t in tests])
+        for _, fit, covariance, tests in _rows(paths)
+    ]
+
+
+def _rows(paths: Sequence[str | Path]) -> list[tuple]:
+    """The fit jobs' records' rows (each led by its candidate's index), in the screen's order."""
+    rows = sorted((row for path in paths for row in pickle.loads(Path(path).read_bytes())), key=lambda r: r[0])
+    if [row[0] for row in rows] != list(range(len(rows))):
+        raise ValueError(f"the fit records {list(map(str, paths))} do not hold each candidate once")
+    return rows

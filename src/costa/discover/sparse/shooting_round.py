@@ -1,0 +1,214 @@
+"""A round on a pot line's record decided by multiple shooting: every hypothesis screened, the best fitted.
+
+Where the first state is searched (hand samples too sparse to place it at the first step) and
+``shooting_cells`` > 0 (the ``plant`` sensor set's default), the first round runs:
+
+1. the uncorrected model's channel tests, its filter's innovations on every cell, as on the
+   filter route: nothing flagged -> stop;
+2. on the first ``shooting_cells`` cells, the uncorrected model fitted by multiple shooting
+   (:mod:`.shooting`) and every hypothesis' closed form of at most three terms screened
+   linearised at that fit (:func:`.form_screen.screen_forms`); the ``shooting_refine`` best by
+   BIC gain and the ``shooting_refine`` best by the channels' predicted excess go on;
+3. each of those fitted by shooting through the continuity stages to the filter's process noise
+   (separate jobs: :mod:`.split`), with its coefficients' covariance and channel tests;
+4. the fits ranked (:func:`.form_screen.ranked_fits`): the first is named where it leaves every
+   channel at its noise, or removes nearly all of the excess ("form incomplete"), and no fit of
+   other physics comes within :data:`.form_screen.MARGIN` of its BIC gain; a fit of other physics
+   within it leaves the round undecided; one that leaves a channel beyond its noise unexplained.
+   The best correction is applied either way.
+
+Every closed form has at most three terms, so no rival holds a larger budget: a name is not bought
+by terms.  A fit at noise on every channel leaves nothing for a further round on these cells, so the
+route decides one round.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ...physics import CellModel
+from ..core.hypotheses import Hypothesis, candidate_hypotheses
+from ..core.library import constant_inputs
+from ..core.naming import removal
+from ..core.settings import DiscoverySettings
+from .estimator import ChannelTest, innovation_tests
+from .form_screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms, states_eliminated
+from .likelihood import HypothesisScore
+from .measure_next import measure_next
+from .observations import Observations
+from .observed import start_is_searched
+from .search import PartialCandidate, PartialRound, channel_tests
+from .shooting import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit
+
+__all__ = ["ShotFit", "ShotScreen", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting", "uses_shooting"]
+
+#: the segments' length [s]
+SEGMENT_S = 3600.0
+
+
+def uses_shooting(settings: DiscoverySettings, obs: Observations) -> bool:
+    """Whether the first round is decided by shooting: ``shooting_cells`` set and the first state searched."""
+    return settings.shooting_cells > 0 and start_is_searched(obs.y, obs.channels)
+
+
+def shooting_cells(obs: Observations, cells: int) -> Observations:
+    """The first ``cells`` cells, cut to whole segments."""
+    steps = round(SEGMENT_S / obs.dt)
+    used = (obs.y.shape[1] // steps) * steps
+    few = obs.subset(slice(0, cells))
+    return replace(few, y=few.y[:, :used], u=few.u[:, :used])
+
+
+@dataclass(frozen=True)
+class ShotScreen:
+    """The round's channel ``tests`` (every cell's filter); on the shooting cells, the uncorrected
+    model's ``base`` fit at the last continuity stage, every hypothesis' screened form (``forms``, best
+    BIC gain first) and the ``candidates`` among them that are fitted."""
+
+    tests: list[ChannelTest]
+    base: ShootingFit | None
+    forms: list[ScreenedForm]
+    candidates: list[ScreenedForm]
+
+    @property
+    def flagged(self) -> list[str]:
+        return [t.channel for t in self.tests if t.flagged]
+
+
+@dataclass(frozen=True)
+class ShotFit:
+    """A candidate's shooting ``fit``, its coefficients' ``covariance`` (P, P) (the inverse of the
+    Gauss-Newton information with the states eliminated) and its residuals' channel ``tests`` on the
+    shooting cells, each flagged where the channel lies beyond its noise (:attr:`.shooting.ShootingFit.beyond_noise`)."""
+
+    fit: ShootingFit
+    covariance: np.ndarray
+    tests: list[ChannelTest]
+
+
+def screen_by_shooting(model: CellModel, obs: Observations, settings: DiscoverySettings) -> ShotScreen:
+    """Steps 1-2 of the module docstring; ``obs`` with each cell's first state searched under ``model``."""
+    tests, _ = channel_tests(model, obs, settings, backward=False)
+    if not any(t.flagged for t in tests):
+        return ShotScreen(tests, None, [], [])
+    few = shooting_cells(obs, settings.shooting_cells)
+    hypotheses = candidate_hypotheses(model, constant_inputs(obs.u))
+    base, forms = screen_forms(model, hypotheses, few, SEGMENT_S)
+    base = shooting_fit(model, None, [], few, SEGMENT_S, starts=base.starts, stages=CONTINUITY_STAGES[1:])
+    top = settings.shooting_refine
+    by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
+    chosen = {id(f): f for f in forms[:top] + by_excess[:top] if f.features}
+    return ShotScreen(tests, base, forms, list(chosen.values()))
+
+
+def fit_by_shooting(
+    model: CellModel, screen: ShotScreen, obs: Observations, settings: DiscoverySettings, share: slice
+) -> list[ShotFit]:
+    """The screen's candidates in ``share`` (job j of ``jobs``: ``slice(j, None, jobs)``), each fitted (step 3)."""
+    few = shooting_cells(obs, settings.shooting_cells)
+    fits = []
+    for form in screen.candidates[share]:
+        fit = shooting_fit(model, form.hypothesis, form.features, few, SEGMENT_S)
+        fits.append(_assessed(model, form.hypothesis, form.features, few, fit, settings))
+    return fits
+
+
+def _assessed(model, hypothesis, features, few: Observations, fit: ShootingFit, settings) -> ShotFit:
+    """The fit's covariance and channel tests, from its residuals and derivatives at the last stage."""
+    segments = Segments(model, hypothesis, features, few, round(SEGMENT_S / few.dt))
+    shot = Shooting.started(segments, fit.starts.reshape(-1, 8), fit.theta, CONTINUITY_STAGES[-1])
+    shot.out, shot.ends, shot.res, shot.cost = shot.evaluate(shot.starts, fit.theta)
+    schur, *_ = states_eliminated(*shot.normal_equations(*shot.jacobians(shot.out, shot.ends), hold_theta=False))
+    residual = np.where(segments.sampled & shot.active[:, None, None], segments.misfit(shot.out[:, 0]), np.nan)
+    residual = residual.reshape(segments.n, segments.count, segments.steps, -1)
+    tested = residual[:, 1:] if segments.count > 1 else residual  # as the fit's own chi2: after each first segment
+    tests = innovation_tests(tested.reshape(segments.n, -1, len(few.channels)), few.channels, settings.z_threshold)
+    tests = [replace(t, flagged=t.channel in fit.beyond_noise) for t in tests]
+    return ShotFit(fit, np.linalg.pinv(schur), tests)
+
+
+def decide_by_shooting(
+    model: CellModel, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings: DiscoverySettings
+) -> PartialRound:
+    """Rank the fits (``fits`` in the screen's candidates' order) and decide the round (step 4)."""
+    return replace(_decided(model, screen, fits, obs, settings), route="shooting")
+
+
+def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings) -> PartialRound:
+    tests, flagged = screen.tests, screen.flagged
+    if not flagged:
+        return PartialRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
+    few = shooting_cells(obs, settings.shooting_cells)
+    base, cells = screen.base, f"cells 0-{settings.shooting_cells - 1}"
+    penalty = float(np.log(int(np.isfinite(few.y).sum())))
+    rng = np.random.default_rng(settings.seed)
+    fitted, candidates = [], {}
+    for form, shot in zip(screen.candidates, fits, strict=True):
+        h, features, fit = form.hypothesis, list(form.features), shot.fit
+        corrected = h.corrected(model, features, fit.theta)
+        gain = base.cost - fit.cost - len(features) * penalty
+        fitted.append(FittedForm(h, form.features, fit, gain, base.cell_cost - fit.cell_cost, corrected))
+        samples = rng.multivariate_normal(fit.theta, shot.covariance, size=settings.bootstrap, method="eigh")
+        states = Segments(model, h, features, few, round(SEGMENT_S / few.dt)).path(fit.starts.reshape(-1, 8), fit.theta)
+        candidates[id(fitted[-1])] = PartialCandidate(
+            HypothesisScore(h, 1.0, 0.0, form.gain / 2), states, features, fit.theta, samples, None, corrected,
+            shot.tests, None, gain, 0, 1.0 - fit.excess / base.excess if base.excess > 0 else 0.0,
+        )  # fmt: skip
+    hourly = few.u[:, :: round(SEGMENT_S / few.dt)]
+    ranking = ranked_fits(
+        fitted, model, base.starts.reshape(-1, 8), hourly.reshape(-1, 5), penalty, base.excess, settings
+    )
+    paying = [candidates[id(f)] for f in ranking.order]
+    order = paying + sorted((c for c in candidates.values() if c not in paying), key=lambda c: -c.bic_gain)
+
+    def next_measured(chosen: Sequence[PartialCandidate]):
+        return measure_next([(c.corrected, c.states) for c in chosen], few)
+
+    if not ranking.order:
+        verdict = (
+            f"unexplained: channels {flagged} disagree beyond noise, but no closed form fitted on {cells} pays "
+            "its terms in every cell"
+        )
+        return PartialRound(model, tests, order, None, [], True, None, verdict, measure_next=next_measured(order[:3]))
+    chosen = candidates[id(ranking.equivalent[0])]
+    equivalent = [candidates[id(f)] for f in ranking.equivalent[1:] + ranking.rivals]
+    rivals = [candidates[id(f)] for f in ranking.rivals]
+    effect = removal(chosen.explained, f"the channels' excess on {cells}")
+    first = ranking.order[0]
+    if not (first.fit.at_noise or ranking.incomplete):
+        left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
+        verdict = (
+            f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {left} times the noise variance "
+            f"on {cells}, so what is missing may be an explanation that did not fit here or more than one effect; "
+            f"the correction {effect}"
+        )
+        recommended = next_measured([chosen, *(c for c in order if c is not chosen)][:3])
+        return PartialRound(model, tests, order, chosen, [], True, None, verdict, measure_next=recommended)
+    if rivals:
+        recommended = next_measured([chosen, *rivals])
+        keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
+        verdict = f"not identifiable: {keys} fit the measured channels on {cells} within {MARGIN:g} of BIC gain"
+        verdict += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
+        separated = recommended[0].channel if recommended else None
+        return PartialRound(
+            model, tests, order, chosen, equivalent, False, separated, f"{verdict}; the correction {effect}",
+            measure_next=recommended,
+        )  # fmt: skip
+    name = _hypothesis(model, ranking.names[0])
+    what = name.describe(model)
+    if name != chosen.hypothesis:
+        what += f" (fitted as {chosen.hypothesis.key}, the same flow)"
+    if ranking.incomplete:
+        left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
+        what += f" (form incomplete: its closed form leaves {left} times the noise variance on {cells})"
+    return PartialRound(
+        model, tests, order, chosen, equivalent, True, None, f"{what}; the correction {effect}",
+        form_tolerated=ranking.incomplete, name=None if name == chosen.hypothesis else name,
+    )  # fmt: skip
+
+
+def _hypothesis(model: CellModel, key: str) -> Hypothesis:
+    return next(h for h in candidate_hypotheses(model) if h.key == key)

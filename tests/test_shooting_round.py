@@ -1,0 +1,52 @@
+"""A pot line's record decided by multiple shooting: as separate jobs, the same findings whatever the split."""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import replace
+
+import pytest
+
+from costa.discover.cases.tables import case_tables
+from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.findings import findings
+from costa.discover.pipeline import run_discovery, search_settings, starting_model
+from costa.discover.sparse import shooting_round
+from costa.discover.sparse.pipeline import fit_first_round, observations, screen_first_round
+from costa.sensors import declared_noise
+
+#: the hypotheses the split test screens: the missing heat loss and two rivals that remove most of it
+SCREENED = ("term:bath_energy", "property:ledge_area", "term:ledge_energy")
+
+
+@pytest.mark.integration  # about four minutes: a screen and two fits, twice
+def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_config, tmp_path, monkeypatch):
+    """top_heat_loss's plant record (2 cells x 18 h to learn from): the shooting screen as one job and
+    its fits as 1 or 2 jobs give the same findings, number for number, and name the missing heat
+    loss.  Three hypotheses are screened and the best one of each ranking fitted, to keep it short."""
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=18, trajectories=3, held_out_trajectories=1)
+    train, held_out = case_tables(config, "top_heat_loss", "plant")
+    name, noise = "top_heat_loss/plant", declared_noise(config["discovery"]["sensor_sets"], "plant")
+    start = starting_model(config, "full")
+    monkeypatch.setattr(
+        shooting_round,
+        "candidate_hypotheses",
+        lambda model, constant=(): [h for h in candidate_hypotheses(model, constant) if h.key in SCREENED],
+    )
+    settings = replace(search_settings(config, name), shooting_refine=1)
+    assert settings.shooting_cells == 2 and shooting_round.uses_shooting(settings, observations(train, noise, name))
+    screen = tmp_path / "screen.pkl"
+    screen_first_round(train, start, settings, noise, "test", screen)
+    found = {}
+    for jobs in (1, 2):
+        fits = [tmp_path / f"fit_{job}_of_{jobs}.pkl" for job in range(jobs)]
+        for job, path in enumerate(fits):
+            fit_first_round(train, start, settings, noise, "test", screen, job, jobs, path)
+        result = run_discovery(config, train, held_out, start, name, "test", noise, (screen, fits))
+        text = findings(result, name, start, {"data": "test"})
+        found[jobs] = {k: v for k, v in text.items() if k != "discovery_seconds"}
+    assert found[1] == found[2]
+    assert found[1]["named"] == ["term:bath_energy"], found[1]["rounds"][0]["verdict"]
+    terms = {c["term"]: c["value"] for c in found[1]["rounds"][0]["named"]["coefficients"]}
+    assert terms["1"] == pytest.approx(-20570.0, rel=0.05), terms
