@@ -287,7 +287,7 @@ def check_shooting_benchmark(command, smoke_run, tmp_path):
 def check_form_screen_benchmark(command, smoke_run, tmp_path):
     result = run_command(
         smoke_run,
-        f"{command} --cases tapping_shortfall --cells 1 --hours 1 --refine 1 --iterations 1 1 --fit-iterations 1 1 --grow 1 "
+        f"{command} --cases tapping_shortfall --cells 1 --hours 18 --refine 1 --iterations 1 1 "
         "--hypotheses property:current_efficiency part:metal_production term:metal_mass",
         timeout=600,
     )

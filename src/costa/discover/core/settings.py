@@ -43,7 +43,9 @@ class DiscoverySettings:
     walks: tuple[float, ...] = (0.0, 0.3, 3.0)
     # a pot line's record (the first state searched): the first round decided by multiple shooting on the
     # first so many cells (0: by the filter, as on other records), fitting the best shooting_refine of
-    # the screen by BIC gain and by the channels' predicted excess
+    # the screen by BIC gain and by the channels' predicted excess, each fit with the iterations
+    # (of the states alone from the data, then of all together) of :func:`..sparse.shooting.shooting_fit`
     shooting_cells: int = 0
     shooting_refine: int = 3
+    shooting_iterations: tuple[int, int] = (8, 30)
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)

@@ -14,7 +14,7 @@ channel sampled most (the voltage's 17 000 samples a cell against six of the met
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 
@@ -33,9 +33,7 @@ __all__ = [
     "FittedForm",
     "Ranking",
     "ScreenedForm",
-    "grown_form",
     "ranked_fits",
-    "richer_terms",
     "screen_forms",
     "screen_terms",
     "states_eliminated",
@@ -81,18 +79,6 @@ def screen_terms(hypothesis: Hypothesis) -> list[Feature]:
     if hypothesis.kind == "part":
         names += ["own"] + [f"own*{name}" for name in FIRST_ORDER[1:]]
     return [library[name] for name in names if name in library]
-
-
-#: what a closed form may grow by around its own fit, beside the screen's terms: squares of the bath's
-#: composition and temperature (for a part also relative to its own value)
-SQUARES = ("(c2 - 0.03)^2", "(c3 - 0.11)^2", "(x6 - 970)^2")
-
-
-def richer_terms(hypothesis: Hypothesis) -> list[Feature]:
-    """:func:`screen_terms` and :data:`SQUARES` (relative too, for a part)."""
-    library = {f.name: f for f in hypothesis.features(rich=True)}
-    squares = [*SQUARES, *(f"own*{name}" for name in SQUARES)] if hypothesis.kind == "part" else list(SQUARES)
-    return screen_terms(hypothesis) + [library[name] for name in squares if name in library]
 
 
 def _steps(model: CellModel, hypothesis: Hypothesis, features: Sequence[Feature], x: np.ndarray, u: np.ndarray):
@@ -155,18 +141,16 @@ def screen_forms(
     segment_s: float = 3600.0,
     iterations: tuple[int, int] = (8, 30),
     max_terms: int = 3,
-    terms: Callable[[Hypothesis], list[Feature]] = screen_terms,
-    starts: np.ndarray | None = None,
-    stages: Sequence[float] = CONTINUITY_STAGES[:1],
 ) -> tuple[ShootingFit, list[ScreenedForm]]:
-    """The model's shooting fit through the continuity ``stages`` (:func:`.shooting.shooting_fit`; from
-    ``starts`` (n, S, 8) where given: another fit's of the same model), and each hypothesis' closed
-    form (at most ``max_terms`` of its ``terms``) with its predicted gain and channels, linearised at
-    that fit, best BIC gain first.  By default at the first stage alone: at the filter's continuity
-    the uncorrected model is far from the data, the linear prediction overshoots, and the right
-    hypothesis ranked lower on 4 of 5 plant records (alumina_feeder 22nd by BIC gain against 6th)."""
-    fitted = shooting_fit(model, None, [], obs, segment_s, iterations, starts, stages=stages)
-    base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts, None, stages[-1])
+    """The model's shooting fit at the first continuity stage (:func:`.shooting.shooting_fit`), and each
+    hypothesis' closed form (at most ``max_terms`` of its :func:`screen_terms`) with its predicted gain
+    and channels, linearised at that fit, best BIC gain first.  At the first stage: linearised at the
+    last (the filter's continuity), where the uncorrected model is far from the data, the prediction
+    overshot, and the right hypothesis ranked lower on 4 of 5 plant records (alumina_feeder 22nd by
+    BIC gain against 6th)."""
+    loose = CONTINUITY_STAGES[:1]
+    fitted = shooting_fit(model, None, [], obs, segment_s, iterations, stages=loose)
+    base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts, None, loose[0])
     base.out, base.ends, base.res, base.cost = base.evaluate(base.starts, np.zeros(0))
     seg = base.segments
     rows = base.starts
@@ -175,7 +159,7 @@ def screen_forms(
     penalty = float(np.log(samples))
     forms = []
     for h in hypotheses:
-        features = terms(h)
+        features = screen_terms(h)
         step = _steps(model, h, features, rows, u0)
         own = Segments(model, h, features, obs, seg.steps, step)
         out, ends = own.integrate(rows, np.zeros(len(features)), "coefficients")
@@ -201,44 +185,6 @@ def screen_forms(
             )
         )  # fmt: skip
     return fitted, sorted(forms, key=lambda f: -f.bic_gain)
-
-
-def grown_form(
-    model: CellModel,
-    hypothesis: Hypothesis,
-    features: Sequence[Feature],
-    obs: Observations,
-    rounds: int = 2,
-    segment_s: float = 3600.0,
-    iterations: tuple[int, int] = (8, 30),
-) -> tuple[list[Feature], ShootingFit]:
-    """The closed form ``features`` fitted by shooting from the data, then grown around its own fit:
-    the corrected model's further correction by the same hypothesis is screened over
-    :func:`richer_terms`, the terms it chooses are added, and the whole is fitted again from there,
-    while that lowers the cost by more than log(samples) a term added (at most ``rounds`` times).
-    A screen linearised far from the data picks proxies (the bath conductivity's law in the AlF3
-    fraction came out as terms in x6 and c2); linearised at a fit near it, the right variable."""
-    features = list(features)
-    fit = shooting_fit(model, hypothesis, features, obs, segment_s, iterations)
-    penalty = float(np.log(int(np.isfinite(obs.y).sum())))
-    last = CONTINUITY_STAGES[-1:]
-    for _ in range(rounds):
-        corrected = hypothesis.corrected(model, features, fit.theta)
-        _, (form,) = screen_forms(
-            corrected, [hypothesis], obs, segment_s, iterations, terms=richer_terms, starts=fit.starts, stages=last
-        )
-        known = {f.name for f in features}
-        added = [f for f in form.features if f.name not in known]
-        if not added:
-            break
-        theta = np.append(fit.theta, np.zeros(len(added)))
-        trial = shooting_fit(
-            model, hypothesis, features + added, obs, segment_s, (0, iterations[1]), fit.starts, theta, last
-        )
-        if fit.cost - trial.cost <= penalty * len(added):
-            break
-        features, fit = features + added, trial
-    return features, fit
 
 
 @dataclass(frozen=True)

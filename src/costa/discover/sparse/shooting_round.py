@@ -43,7 +43,10 @@ from .observed import start_is_searched
 from .search import PartialCandidate, PartialRound, channel_tests
 from .shooting import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit
 
-__all__ = ["ShotFit", "ShotScreen", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting", "uses_shooting"]
+__all__ = [
+    "ShotFit", "ShotScreen", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting", "screened_forms",
+    "shooting_cells", "uses_shooting",
+]  # fmt: skip
 
 #: the segments' length [s]
 SEGMENT_S = 3600.0
@@ -95,13 +98,21 @@ def screen_by_shooting(model: CellModel, obs: Observations, settings: DiscoveryS
     if not any(t.flagged for t in tests):
         return ShotScreen(tests, None, [], [])
     few = shooting_cells(obs, settings.shooting_cells)
-    hypotheses = candidate_hypotheses(model, constant_inputs(obs.u))
-    base, forms = screen_forms(model, hypotheses, few, SEGMENT_S)
-    base = shooting_fit(model, None, [], few, SEGMENT_S, starts=base.starts, stages=CONTINUITY_STAGES[1:])
+    return ShotScreen(tests, *screened_forms(model, candidate_hypotheses(model, constant_inputs(obs.u)), few, settings))
+
+
+def screened_forms(
+    model: CellModel, hypotheses: Sequence[Hypothesis], few: Observations, settings: DiscoverySettings
+) -> tuple[ShootingFit, list[ScreenedForm], list[ScreenedForm]]:
+    """On the shooting cells ``few``: the uncorrected model's fit at the last continuity stage, every
+    hypothesis' screened form (best BIC gain first) and those that go on to a fit (step 2)."""
+    iterations = settings.shooting_iterations
+    base, forms = screen_forms(model, hypotheses, few, SEGMENT_S, iterations)
+    base = shooting_fit(model, None, [], few, SEGMENT_S, iterations, base.starts, stages=CONTINUITY_STAGES[1:])
     top = settings.shooting_refine
     by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
     chosen = {id(f): f for f in forms[:top] + by_excess[:top] if f.features}
-    return ShotScreen(tests, base, forms, list(chosen.values()))
+    return base, forms, list(chosen.values())
 
 
 def fit_by_shooting(
@@ -111,7 +122,7 @@ def fit_by_shooting(
     few = shooting_cells(obs, settings.shooting_cells)
     fits = []
     for form in screen.candidates[share]:
-        fit = shooting_fit(model, form.hypothesis, form.features, few, SEGMENT_S)
+        fit = shooting_fit(model, form.hypothesis, form.features, few, SEGMENT_S, settings.shooting_iterations)
         fits.append(_assessed(model, form.hypothesis, form.features, few, fit, settings))
     return fits
 
