@@ -123,6 +123,18 @@ def test_a_fit_that_moves_one_balance_alone_is_named_as_the_flow_missing_from_it
         assert balance_moved(_fitted(model, hypotheses, key, coefficient, 5000.0, chi2).corrected, model, x, u) is None
 
 
+def test_a_property_that_moves_one_balance_alone_is_named_as_itself(model):
+    """A bath heat capacity 10 % lower (relative correction +0.11 of the bath temperature's rate)
+    changes the bath energy's rate and nothing else, as a missing flow would; but it is a property
+    of the bath, not a flow, and is named as itself (unshipped bath_heat_capacity was named
+    term:bath_energy before this rule)."""
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    x, u = random_operating_points(np.random.default_rng(0), 20)
+    capacity = _fitted(model, hypotheses, "property:bath_heat_capacity", 0.1124, 5000.0, {"x6": 1.0, "U_cell": 1.0})
+    assert balance_moved(capacity.corrected, model, x, u) == "bath_energy"
+    assert ranked_fits([capacity], model, x, u, PENALTY, EXCESS).verdict == "named: property:bath_heat_capacity"
+
+
 def test_a_fit_that_removes_nearly_all_the_excess_is_named_with_its_forms_small_error(model):
     """Where the uncorrected fit's excess is 20 noise variances, a fit leaving the voltage at 1.5 (a
     small form error that 34 000 samples flag) removes 97 % of it and is named, "form incomplete";

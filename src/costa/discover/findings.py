@@ -93,13 +93,13 @@ def _coefficients(features, coefficients, intervals_by_level, inclusion) -> list
 
 
 def _partial_candidate(c, model) -> dict[str, Any]:
-    """A partial round's candidate: as on full data, plus the free delta's likelihood gain that
+    """A partial round's candidate: as on full data, plus the screen's likelihood gain that
     shortlisted it (a correction that could not be scored has no BIC gain), and the trajectories
     whose filter it holds where the uncorrected model's diverged (gains count only the others)."""
     return {
         **_candidate(c, model),
         "bic_gain": round(c.bic_gain, 1) if np.isfinite(c.bic_gain) else None,
-        "free_delta_log_likelihood_gain": round(c.score.log_likelihood_gain, 1),
+        "screen_log_likelihood_gain": round(c.score.log_likelihood_gain, 1),
         "trajectories_held_where_the_model_diverged": c.rescued,
     }
 

@@ -71,6 +71,11 @@ class Hypothesis:
         source, sink = self.target.split("->")
         return f"a flow [{self.unit}] from the {source.replace('_', ' ')} balance to the {sink.replace('_', ' ')} balance is missing"
 
+    @property
+    def is_flow(self) -> bool:
+        """Whether its correction is a flow: a part or term in W or kg/s, or the gain of a logged input."""
+        return self.unit in ("kg/s", "W") or self.kind == "input"
+
     def features(self, rich: bool = False) -> list[Feature]:
         """The term library.  A part's correction may read only the quantities computed before
         it, and a part that is not a flow (kg/s or W) may not depend on the feed and tapping flows."""
@@ -81,8 +86,7 @@ class Hypothesis:
         if self.kind != "part":
             return library
         available = set(PART_ORDER[: PART_ORDER.index(self.target)])
-        is_flow = self.unit in ("kg/s", "W")
-        return [f for f in library if f.needs <= available and (is_flow or not f.reads_flow_inputs)]
+        return [f for f in library if f.needs <= available and (self.is_flow or not f.reads_flow_inputs)]
 
     def sensitivity(self, model: CellModel, x: np.ndarray, u: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
         """dx/dt per unit of delta (..., 8) at the current model; ``base`` = model.rhs(x, u) if known."""

@@ -270,9 +270,11 @@ def ranked_fits(
     BIC gain: differences in the excess there are noise.  The rest follow by their excess (to 0.1
     noise variances), then BIC gain; where the first is one of them, nothing is told apart (the
     outcome is unexplained).  Where the
-    first changes one balance's rate alone, the flow missing from that balance is named with it, and
-    first where :func:`..core.naming.naming_order` says so: on top_heat_loss a constant 20.6 kW taken
-    from the bath's heat of freezing was the best fit of the bath's heat loss."""
+    first is a flow (:attr:`..core.hypotheses.Hypothesis.is_flow`) that changes one balance's rate alone,
+    the flow missing from that balance is named with it, and first where :func:`..core.naming.naming_order`
+    says so: on top_heat_loss a constant 20.6 kW taken from the bath's heat of freezing was the best fit
+    of the bath's heat loss.  Not a property: a bath heat capacity 10 % lower changes the bath energy's
+    rate alone, and is that property, not a missing flow (it was named wrongly so on bath_heat_capacity)."""
     settings = settings or DiscoverySettings()
 
     def good(f: FittedForm) -> bool:
@@ -290,7 +292,7 @@ def ranked_fits(
     reads = model.reads(x[:1], u[:1])
     named = naming_order(same, (), reads, terms=lambda f: len(f.features))
     keys = [f.hypothesis.key for f in named]
-    balance = balance_moved(first.corrected, model, x, u)
+    balance = balance_moved(first.corrected, model, x, u) if first.hypothesis.is_flow else None
     if balance is not None and f"term:{balance}" not in keys:
         flow = next(h for h in candidate_hypotheses(model) if h.key == f"term:{balance}")
         items = [*named, SimpleNamespace(hypothesis=flow, features=first.features)]
