@@ -50,3 +50,15 @@ def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_conf
     assert found[1]["named"] == ["term:bath_energy"], found[1]["rounds"][0]["verdict"]
     terms = {c["term"]: c["value"] for c in found[1]["rounds"][0]["named"]["coefficients"]}
     assert terms["1"] == pytest.approx(-20570.0, rel=0.05), terms
+
+
+def test_the_plant_set_and_your_data_choose_the_shooting_route_by_shooting_cells(default_config):
+    """``shooting_cells`` of the sensor set (the shipped plant set: 2) or of ``user_data`` reaches the
+    search's settings; a set without it (partial) and a user's table without it keep the filter."""
+    config = copy.deepcopy(default_config)
+    assert search_settings(config, "top_heat_loss/plant").shooting_cells == 2
+    assert search_settings(config, "top_heat_loss/partial").shooting_cells == 0
+    config["discovery"]["user_data"] = {"name": "pot12", "shooting_cells": 3}
+    assert search_settings(config, "pot12").shooting_cells == 3
+    config["discovery"]["user_data"] = {"name": "pot12"}
+    assert search_settings(config, "pot12").shooting_cells == 0

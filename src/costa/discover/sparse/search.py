@@ -103,9 +103,8 @@ class PartialCandidate(FittedTerms):
     features: list[Feature]
     coefficients: np.ndarray
     samples: np.ndarray  # bootstrap coefficients (resamples, terms)
-    inclusion: (
-        dict[str, float] | None
-    )  # each term's share of the bootstrap resamples that selected it (None: no bootstrap)
+    # each term's share of the bootstrap resamples that selected it (None: no bootstrap)
+    inclusion: dict[str, float] | None
     corrected: CellModel | None = None
     tests_after: list[ChannelTest] = field(default_factory=list)
     log_likelihood: np.ndarray | None = None  # the corrected model's, per trajectory (n,)
