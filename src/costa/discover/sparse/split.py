@@ -2,7 +2,8 @@
 
 The screen (channel tests, every hypothesis screened) and each candidate's fit are the
 expensive steps of a round on a pot line's record, and the fits are independent given the
-screen, on either route (the filter's, :mod:`.search`, or shooting, :mod:`.shooting_round`).  The workflow runs the screen as one job, the fits as ``jobs`` jobs (job j fits
+screen, on either route (the filter's, :mod:`.search`, or shooting, :mod:`.shooting_round`).
+The workflow runs the screen as one job, the fits as ``jobs`` jobs (job j fits
 candidates j, j + jobs, ...), and the discovery job gathers them, decides the round and
 runs any later round itself: ``--cores N`` or a cluster spreads one case.  The records
 written between them hold numbers only (a hypothesis by its key, a closed form by its terms'
@@ -114,11 +115,12 @@ def _form(record: dict[str, Any], hypotheses: dict) -> ScreenedForm:
 
 def write_shot_screen(screen: ShotScreen, path: str | Path) -> None:
     """The shooting route's screen (:func:`.shooting_round.screen_by_shooting`) as numbers."""
+    position = {id(f): i for i, f in enumerate(screen.forms)}
     record = {
         "tests": [dataclasses.asdict(t) for t in screen.tests],
         "base": None if screen.base is None else dataclasses.asdict(screen.base),
         "forms": [_form_record(f) for f in screen.forms],
-        "candidates": [screen.forms.index(f) for f in screen.candidates],
+        "candidates": [position[id(f)] for f in screen.candidates],
     }
     Path(path).write_bytes(pickle.dumps(record))
 
