@@ -35,6 +35,7 @@ from costa.discover.sparse.search import channel_tests
 from costa.discover.sparse.shooting import shooting_fit
 from costa.discover.sparse.shooting_round import (
     ShotScreen,
+    by_excess,
     decide_by_shooting,
     fit_by_shooting,
     screened_forms,
@@ -93,13 +94,12 @@ def main() -> None:
         started = time.perf_counter()
         base, forms, candidates = screened_forms(model, hypotheses, few, settings)
         screened = time.perf_counter() - started
-        by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
         print(
             f"{name} (cells {cells.start}-{cells.stop - 1} x {few.y.shape[1] * few.dt / 3600:g} h; "
             f"accepted {list(case.accepted)}): flagged {[t.channel for t in tests if t.flagged]}; "
             f"screen of {len(forms)} hypotheses {screened:.1f} s; uncorrected excess {base.excess:.2f}; "
             f"accepted ranks {_rank([f.hypothesis.key for f in forms], case.accepted)} by BIC gain, "
-            f"{_rank([f.hypothesis.key for f in by_excess], case.accepted)} by excess"
+            f"{_rank([f.hypothesis.key for f in by_excess(forms)], case.accepted)} by excess"
         )
         screen = ShotScreen(tests, base, forms, candidates)
         fits, seconds = [], []

@@ -44,8 +44,8 @@ from .search import PartialCandidate, PartialRound, channel_tests
 from .shooting import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit
 
 __all__ = [
-    "ShotFit", "ShotScreen", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting", "screened_forms",
-    "shooting_cells", "uses_shooting",
+    "ShotFit", "ShotScreen", "by_excess", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting",
+    "screened_forms", "shooting_cells", "uses_shooting",
 ]  # fmt: skip
 
 #: the segments' length [s]
@@ -110,9 +110,13 @@ def screened_forms(
     base, forms = screen_forms(model, hypotheses, few, SEGMENT_S, iterations)
     base = shooting_fit(model, None, [], few, SEGMENT_S, iterations, base.starts, stages=CONTINUITY_STAGES[1:])
     top = settings.shooting_refine
-    by_excess = sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
-    chosen = {id(f): f for f in forms[:top] + by_excess[:top] if f.features}
+    chosen = {id(f): f for f in forms[:top] + by_excess(forms)[:top] if f.features}
     return base, forms, list(chosen.values())
+
+
+def by_excess(forms: Sequence[ScreenedForm]) -> list[ScreenedForm]:
+    """The screened forms by the channels' predicted excess (to 0.01 noise variances), then BIC gain."""
+    return sorted(forms, key=lambda f: (round(f.excess, 2), -f.bic_gain))
 
 
 def fit_by_shooting(
