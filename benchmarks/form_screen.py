@@ -1,12 +1,12 @@
 """The plant search's shooting round, step by step: the screen, each fit and the verdict, with their seconds.
 
 For each case, on ``--cells`` cells (from ``--first-cell`` on) of its ``plant`` record, as the
-workflow's plant search does on the first 2 (:mod:`costa.discover.sparse.shooting_round`): the
+workflow's plant search does on the first 2 (:mod:`costa.discover.sparse.shooting.round`): the
 channel tests of those cells, the uncorrected model's shooting fit and every hypothesis' closed
-form screened at once (:func:`~costa.discover.sparse.shooting_round.screened_forms`), the
+form screened at once (:func:`~costa.discover.sparse.shooting.round.screened_forms`), the
 ``--refine`` best by BIC gain and by the channels' predicted excess fitted one at a time
-(:func:`~costa.discover.sparse.shooting_round.fit_by_shooting`), and the round decided
-(:func:`~costa.discover.sparse.shooting_round.decide_by_shooting`).  Prints where the case's
+(:func:`~costa.discover.sparse.shooting.round.fit_by_shooting`), and the round decided
+(:func:`~costa.discover.sparse.shooting.round.decide_by_shooting`).  Prints where the case's
 accepted hypothesis ranks in the screen, each fit, the verdict, and the seconds a hypothesis costs
 in the screen against one fit (the ratio: how many hypotheses the screen scores in the time of
 one fit).  One process, one thread.  ``--true-model`` fits the case's true model instead (its
@@ -31,9 +31,9 @@ from costa.discover.core.library import constant_inputs
 from costa.discover.core.settings import DiscoverySettings
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.pipeline import observations
-from costa.discover.sparse.search import channel_tests
-from costa.discover.sparse.shooting import shooting_fit
-from costa.discover.sparse.shooting_round import (
+from costa.discover.sparse.rounds import channel_tests
+from costa.discover.sparse.shooting.fit import shooting_fit
+from costa.discover.sparse.shooting.round import (
     ShotScreen,
     by_excess,
     decide_by_shooting,

@@ -22,7 +22,7 @@ from costa.discover.cases.tables import case_tables
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.pipeline import observations
-from costa.discover.sparse.shooting import shooting_fit
+from costa.discover.sparse.shooting.fit import shooting_fit
 from costa.sensors import declared_noise
 
 #: case -> (hypothesis, closed form) fitted: the right one first, then rivals with as many terms

@@ -1,8 +1,10 @@
-"""The layout of ``costa.discover`` is its design: two routes over a shared core.
+"""The layout of ``costa.discover`` is its design: routes over a shared core.
 
 Read from the source with :mod:`ast` (nothing is imported): the shared core imports no route,
-the full-state and the sparse route do not import each other (nor the glue above them), and
-no module imports another module's private name from the package.
+the full-state and the sparse route do not import each other (nor the glue above them), the
+sparse route's two ways of deciding a round (``sparse/filter``, ``sparse/shooting``) import
+neither each other nor the glue that picks between them, and no module imports another module's
+private name from the package.
 """
 
 from __future__ import annotations
@@ -16,13 +18,19 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "costa.discover"
 
 #: what each folder of the package may import from the package (besides itself); the top-level
-#: modules are the glue that picks a route and writes the findings, and may import anything
+#: modules are the glue that picks a route and writes the findings, and may import anything.
+#: ``sparse``: the sparse route's shared layer (its top-level modules but :data:`SPARSE_GLUE`)
 ALLOWED = {
     "core": {"core"},
     "full_state": {"core", "full_state"},
     "sparse": {"core", "sparse"},
+    "sparse/filter": {"core", "sparse", "sparse/filter"},
+    "sparse/shooting": {"core", "sparse", "sparse/shooting"},
+    "sparse/glue": {"core", "sparse", "sparse/filter", "sparse/shooting", "sparse/glue"},
     "cases": {"core", "cases"},
 }
+#: the sparse route's modules that pick how a round is decided and write its jobs' records
+SPARSE_GLUE = {"pipeline", "split"}
 
 
 def _module_name(path: Path, src: Path) -> str:
@@ -53,6 +61,10 @@ def area(module: str) -> str | None:
     if module != PACKAGE and not module.startswith(PACKAGE + "."):
         return None
     rest = module[len(PACKAGE) + 1 :].split(".")
+    if rest[0] == "sparse" and len(rest) > 1:
+        if f"sparse/{rest[1]}" in ALLOWED:
+            return f"sparse/{rest[1]}"
+        return "sparse/glue" if rest[1] in SPARSE_GLUE else "sparse"
     return rest[0] if rest[0] in ALLOWED else ""
 
 
@@ -86,8 +98,8 @@ def private_imports(src: Path = SRC) -> list[str]:
 
 def test_the_package_has_the_folders_the_check_knows():
     root = SRC / Path(*PACKAGE.split("."))
-    folders = {p.name for p in root.iterdir() if (p / "__init__.py").is_file()}
-    assert folders == set(ALLOWED)
+    folders = {p.parent.relative_to(root).as_posix() for p in root.rglob("*/__init__.py")}
+    assert folders == set(ALLOWED) - {"sparse/glue"}
     for folder in folders:  # each says which route it is and what it reads and writes
         assert ast.get_docstring(ast.parse((root / folder / "__init__.py").read_text())), folder
 
@@ -108,6 +120,17 @@ def test_no_private_name_is_imported_across_modules():
         ("sparse", "import costa.discover.full_state.weak_form\n", "sparse/ imports costa.discover.full_state"),
         ("sparse", "from .. import pipeline\n", "sparse/ imports costa.discover (the top level)"),
         ("core", "from ...discover.full_state.search import Round\n", "core/ imports costa.discover.full_state"),
+        (
+            "sparse/filter",
+            "from ..shooting.fit import shooting_fit\n",
+            "sparse/filter/ imports costa.discover.sparse.shooting",
+        ),
+        ("sparse/shooting", "from ..filter import search\n", "sparse/shooting/ imports costa.discover.sparse.filter"),
+        (
+            "sparse",
+            "from .pipeline import observations\n",
+            "sparse/ imports costa.discover.sparse.pipeline (sparse/glue)",
+        ),
     ],
 )
 def test_a_planted_import_is_caught(tmp_path, folder, planted, expected):

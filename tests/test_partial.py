@@ -18,11 +18,12 @@ from costa.discover.core.settings import DiscoverySettings
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.pipeline import run_discovery, starting_model
 from costa.discover.sparse.estimator import innovation_tests
-from costa.discover.sparse.likelihood import hypothesis_scales
+from costa.discover.sparse.filter.likelihood import hypothesis_scales
+from costa.discover.sparse.filter.search import discover_round
 from costa.discover.sparse.observations import Observations, channel_noise
 from costa.discover.sparse.observed import estimate_states
 from costa.discover.sparse.pipeline import PartialResult, observations
-from costa.discover.sparse.search import discover_round, fit_outcome
+from costa.discover.sparse.rounds import fit_outcome
 from costa.observe import observe
 from costa.physics import true_model
 from costa.plots import plot_discovery
@@ -371,7 +372,7 @@ def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_los
     """Where the uncorrected model's filter diverges, no difference from it is evidence: there the
     models are compared with the best of them, a model that loses a trajectory gains minus
     infinity, and the trajectories a model holds where the base diverged are counted apart."""
-    from costa.discover.sparse.likelihood import likelihood_gains
+    from costa.discover.sparse.filter.likelihood import likelihood_gains
 
     base = np.array([-10.0, -20.0, -np.inf])
     rows = np.array([[-8.0, -19.0, -5.0], [-9.0, -15.0, -np.inf], [-1.0, np.nan, -1.0], [-9.0, -19.0, -7.0]])
@@ -388,7 +389,7 @@ def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves(
     """BIC differences are evidence only under a likelihood that fits: the window grows by the best
     correction's mean square innovation over all samples (as QAIC divides by c-hat), never shrinks."""
     from costa.discover.sparse.estimator import ChannelTest
-    from costa.discover.sparse.search import _dispersion
+    from costa.discover.sparse.filter.search import _dispersion
 
     def best(*tests):
         return [SimpleNamespace(tests_after=[ChannelTest(c, n, chi2, 0, 0, 0, 0, False) for c, n, chi2 in tests])]
@@ -403,7 +404,7 @@ def test_terms_cannot_buy_a_name(monkeypatch):
     beats that rival by the margin: an 11-term form ahead by 300 BIC whose 3-term cut gains no more
     than the 3-term rival is matched (undecided); a cut that keeps its lead is not; a cut that loses
     a cell the rival holds is matched whatever its gain."""
-    from costa.discover.sparse import search as partial_search
+    from costa.discover.sparse.filter import search as partial_search
 
     n, samples = 4, 10_000
     base = np.zeros(n)
@@ -438,7 +439,8 @@ def test_a_correction_that_leaves_a_small_form_error_is_named_with_its_form_inco
     variance left: paper_liquidus on a pot line's record named the anode-cathode distance so),
     and never where a rival is as good."""
     from costa.discover.sparse.estimator import ChannelTest
-    from costa.discover.sparse.search import PartialRound, _small_form_error
+    from costa.discover.sparse.filter.search import _small_form_error
+    from costa.discover.sparse.rounds import PartialRound
 
     settings = DiscoverySettings()
 
@@ -461,7 +463,7 @@ def test_refined_coefficients_recover_a_hidden_flow_whose_terms_span_decades(def
     decades (as in the full-size case): the posterior is combined in units of the prior widths (in raw units
     rounding alone made it look improper, and the refinement gave up), recovers the truth and
     leaves the absent terms' intervals around zero."""
-    from costa.discover.sparse.likelihood import refine_coefficients
+    from costa.discover.sparse.filter.likelihood import refine_coefficients
 
     config = _reduced(default_config, 5000)  # shorter records never made the old combination fail
     config["discovery"]["trajectories"] = 3
@@ -488,8 +490,8 @@ def test_the_screen_sends_the_best_few_and_their_exact_ties_to_a_fit():
     """The best ``partial_candidates`` go on, with those tied exactly with the last; a hypothesis
     with nothing to show (no gain, no cell held where the uncorrected filter was lost) never does,
     and a gain of minus infinity ties with nothing."""
-    from costa.discover.sparse.likelihood import HypothesisScore
-    from costa.discover.sparse.search import best_screened
+    from costa.discover.sparse.filter.search import best_screened
+    from costa.discover.sparse.rounds import HypothesisScore
 
     def score(name, gain, rescued=0):
         return HypothesisScore(SimpleNamespace(key=name), 1.0, 0.0, gain, rescued)
@@ -509,7 +511,7 @@ def test_each_round_tests_its_model_from_the_start_that_model_places_the_cell_at
     (searched once, in the round that chose it): from the uncorrected model's starts a right
     correction's channels still looked wrong, and a second round named a second effect that is not
     there."""
-    from costa.discover.sparse import search
+    from costa.discover.sparse.filter import search
 
     seen = []
 
@@ -534,9 +536,9 @@ def test_hypotheses_of_the_same_physics_are_fitted_once_as_the_one_named_first()
     the bubbles and the bath's conductivity, which all change the voltage but in proportions that
     vary with the current and the composition (by 2.5-5.5 % over cells 2 % apart), are fitted each on
     its own."""
-    from costa.discover.sparse.likelihood import HypothesisScore
+    from costa.discover.sparse.filter.search import distinct_physics
     from costa.discover.sparse.observed import NOMINAL_STATE
-    from costa.discover.sparse.search import distinct_physics
+    from costa.discover.sparse.rounds import HypothesisScore
 
     model = true_model()
     by_key = {h.key: h for h in candidate_hypotheses(model)}
@@ -559,7 +561,7 @@ def test_a_trajectory_whose_filter_was_lost_leaves_the_closed_form_to_the_others
     finds the same terms and coefficients from the three it holds, where the lost cell used to make
     every coefficient NaN."""
     from costa.discover.sparse.estimator import Smoothed
-    from costa.discover.sparse.search import _closed_form
+    from costa.discover.sparse.filter.search import _closed_form
 
     model = true_model()
     settings = SimulationSettings.from_config(load_config()["simulation"])
@@ -595,7 +597,7 @@ def test_the_refinement_combines_the_trajectories_whose_filter_holds():
     """AlF3 lost at a constant 0.003 kg/s, refined from 0 on four cells' AlF3 fraction, one of which
     has a step the model cannot evaluate (its filter is lost): the other three give the same answer
     as alone, the truth within its interval, where one lost cell used to void the refinement."""
-    from costa.discover.sparse.likelihood import refine_coefficients
+    from costa.discover.sparse.filter.likelihood import refine_coefficients
 
     model = true_model()
     (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
@@ -620,9 +622,10 @@ def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monke
     """Smoothed along current_efficiency, alumina_feeder's plant record holds 6 of its 12 cells: no
     closed form rests on the other half (the refinement gives up at the same share), so the
     candidate goes on with no terms, and none of the fit's stages runs; 7 of 12 is fitted."""
-    from costa.discover.sparse import search
     from costa.discover.sparse.estimator import Smoothed
-    from costa.discover.sparse.likelihood import HypothesisScore, mostly_lost
+    from costa.discover.sparse.filter import search
+    from costa.discover.sparse.filter.likelihood import mostly_lost
+    from costa.discover.sparse.rounds import HypothesisScore
 
     assert mostly_lost(np.arange(12) < 6) and not mostly_lost(np.arange(12) < 7)
     mean = np.ones((12, 5, 9))

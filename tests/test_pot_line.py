@@ -78,7 +78,7 @@ def test_a_correct_model_passes_every_channel_test_on_a_pot_lines_daily_samples(
     cells run by the pot line's controllers, filtered with the model that made them."""
     from costa.discover.pipeline import settings_from_config
     from costa.discover.sparse.pipeline import checked_observations
-    from costa.discover.sparse.search import channel_tests
+    from costa.discover.sparse.rounds import channel_tests
     from costa.sensors import measure, sensor_sets_from_config
 
     sensors = sensor_sets_from_config(default_config["discovery"]["sensor_sets"])["pot_line"]

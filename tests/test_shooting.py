@@ -13,7 +13,7 @@ from costa.discover.cases.unshipped import find_case
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.pipeline import starting_model
 from costa.discover.sparse.pipeline import observations
-from costa.discover.sparse.shooting import Segments, damped_step, filtered_starts, shooting_fit
+from costa.discover.sparse.shooting.fit import Segments, damped_step, filtered_starts, shooting_fit
 from costa.physics import model_from_config
 from costa.sensors import declared_noise, sensor_sets_from_config
 from costa.simulate import SimulationSettings, simulate_set

@@ -11,8 +11,8 @@ from costa.discover.cases.tables import case_tables
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.findings import findings
 from costa.discover.pipeline import run_discovery, search_settings, starting_model
-from costa.discover.sparse import shooting_round
 from costa.discover.sparse.pipeline import fit_first_round, observations, screen_first_round
+from costa.discover.sparse.shooting import round as shooting_round
 from costa.sensors import declared_noise
 
 #: the hypotheses the split test screens: the missing heat loss and two rivals that remove most of it

@@ -14,7 +14,7 @@ from .core.naming import removal
 from .full_state.pipeline import DiscoveryResult
 from .full_state.search import Candidate, Round
 from .sparse.pipeline import PartialResult
-from .sparse.search import PartialRound, fit_outcome
+from .sparse.rounds import PartialRound, fit_outcome
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)
@@ -178,7 +178,7 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
     return found
 
 
-#: how a round on partial measurements was decided (:attr:`.sparse.search.PartialRound.route`)
+#: how a round on partial measurements was decided (:attr:`.sparse.rounds.PartialRound.route`)
 DECIDED_BY = {
     "filter": "each hypothesis' free delta smoothed by the filter on every cell, its closed form regressed on it and "
     "refined on the measured channels, the corrected models compared by the BIC gain of their filter's likelihood",

@@ -44,7 +44,7 @@ class DiscoverySettings:
     # a pot line's record (the first state searched): the first round decided by multiple shooting on the
     # first so many cells (0: by the filter, as on other records), fitting the best shooting_refine of
     # the screen by BIC gain and by the channels' predicted excess, each fit with the iterations
-    # (of the states alone from the data, then of all together) of :func:`..sparse.shooting.shooting_fit`
+    # (of the states alone from the data, then of all together) of :func:`..sparse.shooting.fit.shooting_fit`
     shooting_cells: int = 0
     shooting_refine: int = 3
     shooting_iterations: tuple[int, int] = (8, 30)

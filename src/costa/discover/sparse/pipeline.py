@@ -22,11 +22,12 @@ from ...data import TrajectoryDataError, measured_trajectories
 from ...metrics import EvaluationSettings
 from ...physics import CellModel
 from ..core.settings import DiscoverySettings
+from .filter.search import discover_partial, fit_share, screen_round
 from .gap import measured_gap, measured_noise_floor
 from .observations import Observations, channel_noise
 from .observed import START_SEARCH_S, start_is_searched
-from .search import PartialRound, discover_partial, fit_share, screen_round
-from .shooting_round import decide_by_shooting, fit_by_shooting, screen_by_shooting, uses_shooting
+from .rounds import PartialRound
+from .shooting.round import decide_by_shooting, fit_by_shooting, screen_by_shooting, uses_shooting
 from .split import (
     read_fits,
     read_screen,
@@ -117,8 +118,8 @@ def screen_first_round(
     train: pd.DataFrame, start: CellModel, settings: DiscoverySettings, declared_noise: Mapping[str, float],
     source: str, path: str | Path,
 ) -> None:  # fmt: skip
-    """The first round's screen (:func:`.search.screen_round`, or :func:`.shooting_round.screen_by_shooting`
-    where :func:`.shooting_round.uses_shooting`), written to ``path`` for the fit jobs and the gather
+    """The first round's screen (:func:`.filter.search.screen_round`, or :func:`.shooting.round.screen_by_shooting`
+    where :func:`.shooting.round.uses_shooting`), written to ``path`` for the fit jobs and the gather
     (:mod:`.split`)."""
     obs = checked_observations(train, declared_noise, source, settings).with_start(start)
     if uses_shooting(settings, obs):
@@ -150,7 +151,7 @@ def fit_first_round(
 def _shooting_round(
     start: CellModel, obs: Observations, settings: DiscoverySettings, first_round: tuple | None
 ) -> PartialRound:
-    """The round :mod:`.shooting_round` decides, from the jobs' records where given."""
+    """The round :mod:`.shooting.round` decides, from the jobs' records where given."""
     if first_round is None:
         screen = screen_by_shooting(start, obs.with_start(start), settings)
         fits = fit_by_shooting(start, screen, obs, settings, slice(None))

@@ -2,7 +2,7 @@
 
 The screen (channel tests, every hypothesis screened) and each candidate's fit are the
 expensive steps of a round on a pot line's record, and the fits are independent given the
-screen, on either route (the filter's, :mod:`.search`, or shooting, :mod:`.shooting_round`).
+screen, on either route (the filter's, :mod:`.filter.search`, or shooting, :mod:`.shooting.round`).
 The workflow runs the screen as one job, the fits as ``jobs`` jobs (job j fits
 candidates j, j + jobs, ...), and the discovery job gathers them, decides the round and
 runs any later round itself: ``--cores N`` or a cluster spreads one case.  The records
@@ -22,12 +22,12 @@ from typing import Any
 from ...physics import CellModel
 from ..core.hypotheses import candidate_hypotheses
 from .estimator import ChannelTest
-from .form_screen import ScreenedForm
-from .likelihood import HypothesisScore
+from .filter.search import Screen
 from .observations import Observations
-from .search import PartialCandidate, Screen
-from .shooting import ShootingFit
-from .shooting_round import ShotFit, ShotScreen
+from .rounds import HypothesisScore, PartialCandidate
+from .shooting.fit import ShootingFit
+from .shooting.round import ShotFit, ShotScreen
+from .shooting.screen import ScreenedForm
 
 __all__ = [
     "read_fits", "read_screen", "read_shot_fits", "read_shot_screen", "write_fits", "write_screen",
@@ -114,7 +114,7 @@ def _form(record: dict[str, Any], hypotheses: dict) -> ScreenedForm:
 
 
 def write_shot_screen(screen: ShotScreen, path: str | Path) -> None:
-    """The shooting route's screen (:func:`.shooting_round.screen_by_shooting`) as numbers."""
+    """The shooting route's screen (:func:`.shooting.round.screen_by_shooting`) as numbers."""
     position = {id(f): i for i, f in enumerate(screen.forms)}
     record = {
         "tests": [dataclasses.asdict(t) for t in screen.tests],

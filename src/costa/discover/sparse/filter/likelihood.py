@@ -20,21 +20,20 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
-from ...integrate import rk4_step
-from ...observe import observe
-from ...physics import CellModel
-from ..core.hypotheses import Hypothesis
-from ..core.library import Feature
-from .estimator import Smoothed, StateSpaceModel, smooth
-from .observations import Observations
-from .observed import NOMINAL_STATE, PROCESS_STD
+from ....integrate import rk4_step
+from ....observe import observe
+from ....physics import CellModel
+from ...core.hypotheses import Hypothesis
+from ...core.library import Feature
+from ..estimator import Smoothed, StateSpaceModel, smooth
+from ..observations import Observations
+from ..observed import NOMINAL_STATE, PROCESS_STD
+from ..rounds import HypothesisScore
 
 __all__ = [
-    "HypothesisScore",
     "hypothesis_scales",
     "likelihood_gains",
     "mostly_lost",
@@ -130,26 +129,6 @@ def hypothesis_scales(
         which = np.repeat(np.concatenate([[-1], silent]), len(x))
         size[silent] = strongest(which, x, u)
     return np.divide(1.0, size, out=np.zeros(h_count), where=size > 0)
-
-
-@dataclass(frozen=True)
-class HypothesisScore:
-    """A hypothesis' log-likelihood gain over the model without it, at its best random-walk step;
-    ``rescued``: the trajectories its filter holds where the model's own diverged
-    (:func:`likelihood_gains`); ``smoothing_walk``: the step its delta(t) is smoothed with for the
-    closed form, its best step that lets delta move (a constant delta shows the regression nothing
-    but a constant), or its best step where none of those holds."""
-
-    hypothesis: Hypothesis
-    scale: float
-    walk: float
-    log_likelihood_gain: float
-    rescued: int = 0
-    smoothing_walk: float | None = None
-
-    @property
-    def rank_key(self) -> tuple[int, float]:
-        return self.rescued, self.log_likelihood_gain
 
 
 def likelihood_gains(rows: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -39,16 +39,16 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from ...physics import CellModel
-from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
-from ..core.hypotheses import Hypothesis, candidate_hypotheses
-from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ..core.naming import naming_order, removal, same_physics
-from ..core.regression import (
+from ....physics import CellModel
+from ...core.fitted_terms import KEEP_LEVEL, weakest_term
+from ...core.hypotheses import Hypothesis, candidate_hypotheses
+from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
+from ...core.naming import naming_order, removal, same_physics
+from ...core.regression import (
     GramSystem,
     coefficient_samples,
     independent_columns,
@@ -56,30 +56,25 @@ from ..core.regression import (
     selection_frequency,
     solve_subset,
 )
-from ..core.settings import DiscoverySettings
-from .estimator import ChannelTest, Smoothed, innovation_tests
+from ...core.settings import DiscoverySettings
+from ..estimator import ChannelTest, Smoothed
+from ..measure_next import Recommendation, measure_next
+from ..observations import Observations
+from ..rounds import BudgetComparison, HypothesisScore, PartialCandidate, PartialRound, channel_tests, fit_outcome
 from .likelihood import (
-    HypothesisScore,
     likelihood_gains,
     mostly_lost,
     refine_coefficients,
     score_hypotheses,
     smooth_hypothesis,
 )
-from .measure_next import Recommendation, measure_next
-from .observations import Observations
-from .observed import estimate_states
 
 __all__ = [
-    "BudgetComparison",
     "Screen",
-    "PartialRound",
     "at_budget",
-    "channel_tests",
     "decide_round",
     "discover_partial",
     "distinct_physics",
-    "fit_outcome",
     "fit_share",
     "screen_round",
 ]
@@ -89,117 +84,6 @@ log = logging.getLogger(__name__)
 #: two hypotheses whose changes of the state rates, each at a constant delta, differ by less than this
 #: share (rounding) are one fit: unlike fitted corrections, no closed form can tell them apart
 SAME_EFFECT = 1e-4
-
-
-@dataclass
-class PartialCandidate(FittedTerms):
-    """A hypothesis with its smoothed delta, the closed form fitted to it and the corrected model's
-    score: ``bic_gain`` over the uncorrected model on the measured channels, ``explained`` the share
-    of the flagged channels' excess it removes; ``placed``: the observations with the start the
-    corrected model searches itself, from which it was tested (and a later round runs)."""
-
-    score: HypothesisScore
-    states: np.ndarray  # the states (n, K, 8) smoothed along its free delta
-    features: list[Feature]
-    coefficients: np.ndarray
-    samples: np.ndarray  # bootstrap coefficients (resamples, terms)
-    # each term's share of the bootstrap resamples that selected it (None: no bootstrap)
-    inclusion: dict[str, float] | None
-    corrected: CellModel | None = None
-    tests_after: list[ChannelTest] = field(default_factory=list)
-    log_likelihood: np.ndarray | None = None  # the corrected model's, per trajectory (n,)
-    bic_gain: float = -np.inf
-    rescued: int = 0  # trajectories whose filter the correction holds where the uncorrected model's diverged
-    explained: float = 0.0
-    placed: Observations | None = None
-
-    @property
-    def rank_key(self) -> tuple[int, float]:
-        return self.rescued, self.bic_gain
-
-    @property
-    def hypothesis(self) -> Hypothesis:
-        return self.score.hypothesis
-
-
-@dataclass(frozen=True)
-class BudgetComparison:
-    """The chosen correction against a rival of different physics with fewer terms, at the rival's
-    term budget: ``chosen_gain`` is the BIC gain of the chosen closed form cut to the rival's
-    ``terms`` strongest terms and refined again, ``rival_gain`` the rival's own; ``matched`` when
-    the cut form does not beat the rival by the equivalence margin (its lead was bought by terms)."""
-
-    rival: str
-    terms: int
-    chosen_gain: float
-    rival_gain: float
-    matched: bool
-
-
-@dataclass
-class PartialRound:
-    """What one round on partial measurements found.
-
-    ``ranking``: the fitted candidates, best BIC gain first; ``equivalent``: those as good as
-    the chosen one; ``identifiable`` False when they are different physics (nothing is named
-    then, though ``chosen`` corrects the model); ``separated_by``: the unmeasured channel that
-    would tell them apart; ``dispersion``: the best correction's remaining misfit
-    (:func:`_dispersion`), by which the equivalence window was widened.
-    """
-
-    model: CellModel
-    tests: list[ChannelTest]
-    ranking: list[PartialCandidate]
-    chosen: PartialCandidate | None
-    equivalent: list[PartialCandidate]
-    identifiable: bool
-    separated_by: str | None
-    verdict: str
-    dispersion: float = 1.0
-    at_budget: list[BudgetComparison] = field(default_factory=list)
-    measure_next: list[Recommendation] = field(default_factory=list)
-    form_tolerated: bool = False  # the chosen correction's form error is small (see :func:`_small_form_error`)
-    name: Hypothesis | None = None  # what the chosen correction is named as, where not its own hypothesis
-    route: str = "filter"  # how the round was decided: "filter" (this module) or "shooting" (:mod:`.shooting_round`)
-
-    @property
-    def flagged(self) -> list[str]:
-        return [t.channel for t in self.tests if t.flagged]
-
-    @property
-    def unexplained(self) -> list[str]:
-        """The measured channels that still disagree beyond noise after the chosen correction."""
-        return [t.channel for t in self.chosen.tests_after if t.flagged] if self.chosen is not None else []
-
-    @property
-    def form_incomplete(self) -> bool:
-        """Named although its closed form leaves channels disagreeing (it removes nearly all of their excess)."""
-        return self.named is not None and bool(self.unexplained)
-
-    @property
-    def named(self) -> Hypothesis | None:
-        """The chosen explanation, where the measurements tell it from the others, no rival matches it
-        with as many terms, and it explains the channels (all of them, or nearly all of their excess:
-        ``form incomplete``): its own hypothesis, or the flow missing from the one balance it moves (``name``)."""
-        if self.chosen is None or not self.identifiable:
-            return None
-        if self.unexplained and not self.form_tolerated:
-            return None
-        return self.name or self.chosen.hypothesis
-
-    @property
-    def corrected(self) -> CellModel | None:
-        return self.chosen.corrected if self.chosen is not None else None
-
-
-def fit_outcome(fitted: bool, explained: float, scored: bool) -> str:
-    """What a candidate's correction did to the flagged channels' excess, in words, or why it has
-    none: not ``fitted`` (its filter lost on half the cells or more, or no term held), or not
-    ``scored`` (the corrected filter lost a cell that the uncorrected model's holds)."""
-    if not fitted:
-        return "could not be fitted (its filter was lost on half the cells or more, or no term held)"
-    effect = removal(explained)
-    return effect if scored else f"{effect}, but its filter is lost on a cell the uncorrected model's holds"
 
 
 def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
@@ -356,16 +240,6 @@ def _proportional(a: np.ndarray, b: np.ndarray) -> bool:
         return False
     a, b = a / norms[0], b / norms[1]
     return bool(min(np.linalg.norm(a - b), np.linalg.norm(a + b)) < SAME_EFFECT)
-
-
-def channel_tests(
-    model: CellModel, obs: Observations, settings: DiscoverySettings, backward: bool = True
-) -> tuple[list[ChannelTest], Smoothed]:
-    """The model's innovation tests of each measured channel after the settling steps, from its filter
-    (and smoother, where ``backward``) started at ``obs.start``."""
-    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward, obs.start)
-    settled = smoothed.innovation[:, obs.settling_steps :]
-    return innovation_tests(settled, obs.channels, settings.z_threshold, settings.min_excess), smoothed
 
 
 def _fit(

@@ -6,14 +6,14 @@ Where the first state is searched (hand samples too sparse to place it at the fi
 1. the uncorrected model's channel tests, its filter's innovations on every cell, as on the
    filter route: nothing flagged -> stop;
 2. on the first ``shooting_cells`` cells, the uncorrected model fitted by multiple shooting
-   (:mod:`.shooting`) and every hypothesis' closed form of at most three terms screened
-   linearised at that fit (:func:`.form_screen.screen_forms`); the ``shooting_refine`` best by
+   (:mod:`.fit`) and every hypothesis' closed form of at most three terms screened
+   linearised at that fit (:func:`.screen.screen_forms`); the ``shooting_refine`` best by
    BIC gain and the ``shooting_refine`` best by the channels' predicted excess go on;
 3. each of those fitted by shooting through the continuity stages to the filter's process noise
    (separate jobs: :mod:`.split`), with its coefficients' covariance and channel tests;
-4. the fits ranked (:func:`.form_screen.ranked_fits`): the first is named where it leaves every
+4. the fits ranked (:func:`.screen.ranked_fits`): the first is named where it leaves every
    channel at its noise, or removes nearly all of the excess ("form incomplete"), and no fit of
-   other physics comes within :data:`.form_screen.MARGIN` of its BIC gain; a fit of other physics
+   other physics comes within :data:`.screen.MARGIN` of its BIC gain; a fit of other physics
    within it leaves the round undecided; one that leaves a channel beyond its noise unexplained.
    The best correction is applied either way.
 
@@ -29,19 +29,18 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...physics import CellModel
-from ..core.hypotheses import Hypothesis, candidate_hypotheses
-from ..core.library import constant_inputs
-from ..core.naming import removal
-from ..core.settings import DiscoverySettings
-from .estimator import ChannelTest, innovation_tests
-from .form_screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms, states_eliminated
-from .likelihood import HypothesisScore
-from .measure_next import measure_next
-from .observations import Observations
-from .observed import start_is_searched
-from .search import PartialCandidate, PartialRound, channel_tests
-from .shooting import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit
+from ....physics import CellModel
+from ...core.hypotheses import Hypothesis, candidate_hypotheses
+from ...core.library import constant_inputs
+from ...core.naming import removal
+from ...core.settings import DiscoverySettings
+from ..estimator import ChannelTest, innovation_tests
+from ..measure_next import measure_next
+from ..observations import Observations
+from ..observed import start_is_searched
+from ..rounds import HypothesisScore, PartialCandidate, PartialRound, channel_tests
+from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit
+from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms, states_eliminated
 
 __all__ = [
     "ShotFit", "ShotScreen", "by_excess", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting",

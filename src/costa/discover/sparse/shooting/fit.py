@@ -36,13 +36,13 @@ from itertools import islice
 
 import numpy as np
 
-from ...integrate import rk4_step
-from ...observe import observe
-from ...physics import CellModel
-from ..core.hypotheses import Hypothesis
-from ..core.library import Feature
-from .observations import Observations
-from .observed import NOMINAL_STATE, PRIOR_STD, PROCESS_STD, estimate_states, searched_start
+from ....integrate import rk4_step
+from ....observe import observe
+from ....physics import CellModel
+from ...core.hypotheses import Hypothesis
+from ...core.library import Feature
+from ..observations import Observations
+from ..observed import NOMINAL_STATE, PRIOR_STD, PROCESS_STD, estimate_states, searched_start
 
 __all__ = [
     "ALUMINA_GRID",

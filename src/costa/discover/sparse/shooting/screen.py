@@ -1,6 +1,6 @@
 """Every hypothesis' closed forms scored at once, linearised at the uncorrected model's shooting fit.
 
-The uncorrected model's segment starts are fitted first (:mod:`.shooting`, no hypothesis).
+The uncorrected model's segment starts are fitted first (:mod:`.fit`, no hypothesis).
 Each hypothesis then adds its screen terms (:func:`screen_terms`), each a finite-difference
 row per segment integrated from those starts.  With the states' derivatives shared, the
 Gauss-Newton step in the states and one hypothesis' coefficients together predicts how much
@@ -20,14 +20,14 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ...physics import CellModel
-from ..core.hypotheses import Hypothesis, candidate_hypotheses
-from ..core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from ..core.naming import balance_moved, naming_order, same_physics
-from ..core.settings import DiscoverySettings
-from .observations import Observations
-from .observed import PRIOR_STD
-from .shooting import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, channel_excess, shooting_fit
+from ....physics import CellModel
+from ...core.hypotheses import Hypothesis, candidate_hypotheses
+from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature
+from ...core.naming import balance_moved, naming_order, same_physics
+from ...core.settings import DiscoverySettings
+from ..observations import Observations
+from ..observed import PRIOR_STD
+from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, channel_excess, shooting_fit
 
 __all__ = [
     "FittedForm",
@@ -66,7 +66,7 @@ class ScreenedForm:
 
     @property
     def excess(self) -> float:
-        """The channels' predicted variance beyond noise (:func:`.shooting.channel_excess`)."""
+        """The channels' predicted variance beyond noise (:func:`.fit.channel_excess`)."""
         return channel_excess(self.chi2)
 
 
@@ -142,7 +142,7 @@ def screen_forms(
     iterations: tuple[int, int] = (8, 30),
     max_terms: int = 3,
 ) -> tuple[ShootingFit, list[ScreenedForm]]:
-    """The model's shooting fit at the first continuity stage (:func:`.shooting.shooting_fit`), and each
+    """The model's shooting fit at the first continuity stage (:func:`.fit.shooting_fit`), and each
     hypothesis' closed form (at most ``max_terms`` of its :func:`screen_terms`) with its predicted gain
     and channels, linearised at that fit, best BIC gain first.  At the first stage: linearised at the
     last (the filter's continuity), where the uncorrected model is far from the data, the prediction

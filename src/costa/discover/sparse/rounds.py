@@ -1,0 +1,171 @@
+"""What a round on partial measurements found, whichever route decided it: the shared result.
+
+Both routes of the sparse search start from the uncorrected model's channel tests
+(:func:`channel_tests`: its filter's innovations on every cell) and end in a
+:class:`PartialRound` of :class:`PartialCandidate` s, which the findings, the summary table,
+the report and "measure next" read alike: the filter route (:mod:`.filter`) scores each
+hypothesis by the likelihood its random-walk delta gains, the shooting route
+(:mod:`.shooting`) fits closed forms by multiple shooting.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...physics import CellModel
+from ..core.fitted_terms import FittedTerms
+from ..core.hypotheses import Hypothesis
+from ..core.library import Feature
+from ..core.naming import removal
+from ..core.settings import DiscoverySettings
+from .estimator import ChannelTest, Smoothed, innovation_tests
+from .measure_next import Recommendation
+from .observations import Observations
+from .observed import estimate_states
+
+__all__ = [
+    "BudgetComparison", "HypothesisScore", "PartialCandidate", "PartialRound", "channel_tests", "fit_outcome",
+]  # fmt: skip
+
+
+@dataclass(frozen=True)
+class HypothesisScore:
+    """A hypothesis' log-likelihood gain over the model without it, at its best random-walk step;
+    ``rescued``: the trajectories its filter holds where the model's own diverged
+    (:func:`likelihood_gains`); ``smoothing_walk``: the step its delta(t) is smoothed with for the
+    closed form, its best step that lets delta move (a constant delta shows the regression nothing
+    but a constant), or its best step where none of those holds."""
+
+    hypothesis: Hypothesis
+    scale: float
+    walk: float
+    log_likelihood_gain: float
+    rescued: int = 0
+    smoothing_walk: float | None = None
+
+    @property
+    def rank_key(self) -> tuple[int, float]:
+        return self.rescued, self.log_likelihood_gain
+
+
+@dataclass
+class PartialCandidate(FittedTerms):
+    """A hypothesis with its smoothed delta, the closed form fitted to it and the corrected model's
+    score: ``bic_gain`` over the uncorrected model on the measured channels, ``explained`` the share
+    of the flagged channels' excess it removes; ``placed``: the observations with the start the
+    corrected model searches itself, from which it was tested (and a later round runs)."""
+
+    score: HypothesisScore
+    states: np.ndarray  # the states (n, K, 8) smoothed along its free delta
+    features: list[Feature]
+    coefficients: np.ndarray
+    samples: np.ndarray  # bootstrap coefficients (resamples, terms)
+    # each term's share of the bootstrap resamples that selected it (None: no bootstrap)
+    inclusion: dict[str, float] | None
+    corrected: CellModel | None = None
+    tests_after: list[ChannelTest] = field(default_factory=list)
+    log_likelihood: np.ndarray | None = None  # the corrected model's, per trajectory (n,)
+    bic_gain: float = -np.inf
+    rescued: int = 0  # trajectories whose filter the correction holds where the uncorrected model's diverged
+    explained: float = 0.0
+    placed: Observations | None = None
+
+    @property
+    def rank_key(self) -> tuple[int, float]:
+        return self.rescued, self.bic_gain
+
+    @property
+    def hypothesis(self) -> Hypothesis:
+        return self.score.hypothesis
+
+
+@dataclass(frozen=True)
+class BudgetComparison:
+    """The chosen correction against a rival of different physics with fewer terms, at the rival's
+    term budget: ``chosen_gain`` is the BIC gain of the chosen closed form cut to the rival's
+    ``terms`` strongest terms and refined again, ``rival_gain`` the rival's own; ``matched`` when
+    the cut form does not beat the rival by the equivalence margin (its lead was bought by terms)."""
+
+    rival: str
+    terms: int
+    chosen_gain: float
+    rival_gain: float
+    matched: bool
+
+
+@dataclass
+class PartialRound:
+    """What one round on partial measurements found.
+
+    ``ranking``: the fitted candidates, best BIC gain first; ``equivalent``: those as good as
+    the chosen one; ``identifiable`` False when they are different physics (nothing is named
+    then, though ``chosen`` corrects the model); ``separated_by``: the unmeasured channel that
+    would tell them apart; ``dispersion``: the best correction's remaining misfit (on the filter
+    route), by which the equivalence window was widened.
+    """
+
+    model: CellModel
+    tests: list[ChannelTest]
+    ranking: list[PartialCandidate]
+    chosen: PartialCandidate | None
+    equivalent: list[PartialCandidate]
+    identifiable: bool
+    separated_by: str | None
+    verdict: str
+    dispersion: float = 1.0
+    at_budget: list[BudgetComparison] = field(default_factory=list)
+    measure_next: list[Recommendation] = field(default_factory=list)
+    form_tolerated: bool = False  # the chosen correction's form error is small: named "form incomplete"
+    name: Hypothesis | None = None  # what the chosen correction is named as, where not its own hypothesis
+    route: str = "filter"  # how the round was decided: "filter" (:mod:`.filter`) or "shooting" (:mod:`.shooting`)
+
+    @property
+    def flagged(self) -> list[str]:
+        return [t.channel for t in self.tests if t.flagged]
+
+    @property
+    def unexplained(self) -> list[str]:
+        """The measured channels that still disagree beyond noise after the chosen correction."""
+        return [t.channel for t in self.chosen.tests_after if t.flagged] if self.chosen is not None else []
+
+    @property
+    def form_incomplete(self) -> bool:
+        """Named although its closed form leaves channels disagreeing (it removes nearly all of their excess)."""
+        return self.named is not None and bool(self.unexplained)
+
+    @property
+    def named(self) -> Hypothesis | None:
+        """The chosen explanation, where the measurements tell it from the others, no rival matches it
+        with as many terms, and it explains the channels (all of them, or nearly all of their excess:
+        ``form incomplete``): its own hypothesis, or the flow missing from the one balance it moves (``name``)."""
+        if self.chosen is None or not self.identifiable:
+            return None
+        if self.unexplained and not self.form_tolerated:
+            return None
+        return self.name or self.chosen.hypothesis
+
+    @property
+    def corrected(self) -> CellModel | None:
+        return self.chosen.corrected if self.chosen is not None else None
+
+
+def fit_outcome(fitted: bool, explained: float, scored: bool) -> str:
+    """What a candidate's correction did to the flagged channels' excess, in words, or why it has
+    none: not ``fitted`` (its filter lost on half the cells or more, or no term held), or not
+    ``scored`` (the corrected filter lost a cell that the uncorrected model's holds)."""
+    if not fitted:
+        return "could not be fitted (its filter was lost on half the cells or more, or no term held)"
+    effect = removal(explained)
+    return effect if scored else f"{effect}, but its filter is lost on a cell the uncorrected model's holds"
+
+
+def channel_tests(
+    model: CellModel, obs: Observations, settings: DiscoverySettings, backward: bool = True
+) -> tuple[list[ChannelTest], Smoothed]:
+    """The model's innovation tests of each measured channel after the settling steps, from its filter
+    (and smoother, where ``backward``) started at ``obs.start``."""
+    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward, obs.start)
+    settled = smoothed.innovation[:, obs.settling_steps :]
+    return innovation_tests(settled, obs.channels, settings.z_threshold, settings.min_excess), smoothed
