@@ -48,7 +48,7 @@ def test_a_planted_conductivity_law_is_recovered_from_a_short_plant_record(defau
 def test_a_missing_heat_loss_is_fitted_through_the_continuity_stages(default_config):
     """top_heat_loss takes 22 W/K (x6 - 35 degC) from the bath: -20 570 W - 22 W/K (x6 - 970) as the
     bath energy's missing flow.  From 2 cells x 12 h of the plant sensors and theta = 0, the fit
-    through the continuity stages (100, 10, 1 x the filter's process noise) comes within 3 % of the
+    through the continuity stages (100, 10, 3, 1 x the filter's process noise) comes within 3 % of the
     constant with every channel at its noise (about a minute).  Fitted at the filter's continuity
     alone it stopped at -6 620 W: the segments are tied too tightly to leave the data's placement."""
     obs, model, hypothesis = _plant_record(default_config, "top_heat_loss", 12, "term:bath_energy")

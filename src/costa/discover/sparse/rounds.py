@@ -32,9 +32,10 @@ __all__ = [
 
 @dataclass(frozen=True)
 class HypothesisScore:
-    """A hypothesis' log-likelihood gain over the model without it, at its best random-walk step;
+    """A hypothesis' log-likelihood gain over the model without it, at its best random-walk step (on
+    the shooting route: half the cost decrease the screen predicts for its closed form, at walk 0);
     ``rescued``: the trajectories its filter holds where the model's own diverged
-    (:func:`likelihood_gains`); ``smoothing_walk``: the step its delta(t) is smoothed with for the
+    (:func:`.filter.likelihood.likelihood_gains`); ``smoothing_walk``: the step its delta(t) is smoothed with for the
     closed form, its best step that lets delta move (a constant delta shows the regression nothing
     but a constant), or its best step where none of those holds."""
 
