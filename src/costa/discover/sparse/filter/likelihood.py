@@ -2,7 +2,7 @@
 
 With some states never measured and others sampled hours apart, residuals per state
 equation cannot be formed.  Instead each hypothesis' unknown delta(t) becomes a
-random-walk state of the smoother (:mod:`.estimator`), beside the cell's eight
+random-walk state of the smoother (:mod:`..estimator`), beside the cell's eight
 states: the data then say, through the marginal likelihood of the measured
 channels, how much better the model explains them when that one delta may vary, and
 the smoothed delta(t) is what the closed-form stage regresses on the physical

@@ -3,16 +3,16 @@
 One round on the current model:
 
 1. the smoother's innovations of every measured channel are tested for variance, bias
-   and whiteness (:func:`.estimator.innovation_tests`); nothing flagged -> stop;
+   and whiteness (:func:`..estimator.innovation_tests`); nothing flagged -> stop;
 2. every hypothesis gets a random-walk delta(t) in the smoother and is scored, on a few
    trajectories, by the log-likelihood it gains (:func:`.likelihood.score_hypotheses`);
    the best ``partial_candidates`` go on, one of each group of the same physics
    (:func:`distinct_physics`);
 3. each of those is smoothed on all trajectories (one whose filter is lost on half of
    them or more goes no further), its delta(t) regressed on the physical
-   terms (:mod:`..core.library`) evaluated at the smoothed states, window by window, with one
+   terms (:mod:`...core.library`) evaluated at the smoothed states, window by window, with one
    bootstrap over blocks of trajectories for selection and intervals (a term is kept
-   only if its :data:`..core.fitted_terms.KEEP_LEVEL` interval excludes zero), and the corrected
+   only if its :data:`...core.fitted_terms.KEEP_LEVEL` interval excludes zero), and the corrected
    model scored by the BIC gain of its own likelihood of the measured channels, as the
    full-data route scores a correction by its exact residual;
 4. corrections within ``equivalence`` BIC of the best explain the measured channels
@@ -148,7 +148,7 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     (:func:`.likelihood.refine_coefficients`), with samples of their posterior in place of the bootstrap's.
 
     Beside the selected terms, the library's flow inputs (the feed and tapping, one-step doses)
-    and its first-order terms (:data:`..core.library.FIRST_ORDER`) are refined: a delta proportional to
+    and its first-order terms (:data:`...core.library.FIRST_ORDER`) are refined: a delta proportional to
     a dose is a train of spikes that the smoothed random walk spreads out, so the regression
     cannot see it, but the measured channels can; and where the regression on a delta smoothed
     from sparse samples picked a proxy (the superheat for a rate that rises with the temperature
@@ -208,7 +208,7 @@ def distinct_physics(
     whose fits would be the same fit.  Not hypotheses that differ by a factor that varies with the
     state (the ACD, the bath's conductivity and the bubbles all change the voltage, but in
     proportions that vary with the line current and the composition): their closed forms differ.
-    The one kept is the one :func:`..core.naming.naming_order` names first; the order of the groups is
+    The one kept is the one :func:`...core.naming.naming_order` names first; the order of the groups is
     that of their best member."""
     with np.errstate(all="ignore"):
         base = model.rhs(x, u)
@@ -499,7 +499,7 @@ def _small_form_error(chosen: PartialCandidate, settings: DiscoverySettings) -> 
 
 
 def _next(candidates: Sequence[PartialCandidate], obs: Observations) -> list[Recommendation]:
-    """What to measure to tell the first candidate from the others (:func:`.measure_next.measure_next`):
+    """What to measure to tell the first candidate from the others (:func:`..measure_next.measure_next`):
     each seen through its corrected model, along the states its smoothed delta implies."""
     return measure_next([(c.corrected, c.states) for c in candidates], obs)
 
@@ -525,7 +525,7 @@ def discover_partial(
     so far) searches itself, the one its correction was tested from (``placed``): from the
     uncorrected model's starts a right correction can look wrong, and a second round name an
     effect that is not there.  ``first_round``: the first round's screen and fits, made by
-    separate jobs (:mod:`.split`); the rounds are the same as without."""
+    separate jobs (:mod:`..split`); the rounds are the same as without."""
     rng = np.random.default_rng(settings.seed)
     rounds: list[PartialRound] = []
     current, placed = model, obs

@@ -60,7 +60,7 @@ ALUMINA_GRID = (0.022, 0.026, 0.03, 0.035, 0.04, 0.05)
 #: the bath mass [kg] a segment starts from where nothing measures it
 BATH_KG = 14000.0
 #: how far a segment's end may miss the next segment's start (1 std), in the filter's process noise
-#: over the segment's steps (:data:`.observed.PROCESS_STD` times the square root of the steps), stage by
+#: over the segment's steps (:data:`..observed.PROCESS_STD` times the square root of the steps), stage by
 #: stage: each stage starts from the last one's fit.  The last is the filter's own, so the fit is
 #: its most probable path and the cost ranks closed forms as its likelihood does.  Fitted at 100
 #: alone, the joins absorbed top_heat_loss's missing 20 kW: the truth's closed form drifted from
@@ -189,7 +189,7 @@ class Segments:
 
 def filtered_starts(model: CellModel, obs: Observations, segment_s: float = 3600.0) -> np.ndarray:
     """Each segment's first state (n, S, 8): ``model``'s smoothed states (its filter from the first
-    state it searches, :func:`.observed.searched_start`) at the first step of each ``segment_s`` [s];
+    state it searches, :func:`..observed.searched_start`) at the first step of each ``segment_s`` [s];
     NaN where the filter lost the cell."""
     steps = max(1, round(segment_s / obs.dt))
     start = searched_start(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt)

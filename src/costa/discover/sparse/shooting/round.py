@@ -10,7 +10,7 @@ Where the first state is searched (hand samples too sparse to place it at the fi
    linearised at that fit (:func:`.screen.screen_forms`); the ``shooting_refine`` best by
    BIC gain and the ``shooting_refine`` best by the channels' predicted excess go on;
 3. each of those fitted by shooting through the continuity stages to the filter's process noise
-   (separate jobs: :mod:`.split`), with its coefficients' covariance and channel tests;
+   (separate jobs: :mod:`..split`), with its coefficients' covariance and channel tests;
 4. the fits ranked (:func:`.screen.ranked_fits`): the first is named where it leaves every
    channel at its noise, or removes nearly all of the excess ("form incomplete"), and no fit of
    other physics comes within :data:`.screen.MARGIN` of its BIC gain; a fit of other physics
@@ -84,7 +84,7 @@ class ShotScreen:
 class ShotFit:
     """A candidate's shooting ``fit``, its coefficients' ``covariance`` (P, P) (the inverse of the
     Gauss-Newton information with the states eliminated) and its residuals' channel ``tests`` on the
-    shooting cells, each flagged where the channel lies beyond its noise (:attr:`.shooting.ShootingFit.beyond_noise`)."""
+    shooting cells, each flagged where the channel lies beyond its noise (:attr:`.fit.ShootingFit.beyond_noise`)."""
 
     fit: ShootingFit
     covariance: np.ndarray

@@ -72,7 +72,7 @@ class ScreenedForm:
 
 def screen_terms(hypothesis: Hypothesis) -> list[Feature]:
     """The terms a hypothesis is screened with: a constant and the bath's composition and
-    temperature, linear (:data:`..core.library.FIRST_ORDER`); for a part also the same relative to
+    temperature, linear (:data:`...core.library.FIRST_ORDER`); for a part also the same relative to
     its own value; and the feed and tapping flows where the hypothesis may read them."""
     library = {f.name: f for f in hypothesis.features()}
     names = list(FIRST_ORDER) + list(FLOW_INPUTS)
@@ -204,8 +204,8 @@ class FittedForm:
         """Whether the fit, not at its noise, leaves only a small error of its closed form: it removes
         the ``form_incomplete`` share of the uncorrected fit's excess (``excess_before``) and leaves no
         channel beyond its noise by more than ``form_excess`` noise variances, as the filter route asks
-        (:class:`..core.settings.DiscoverySettings`).  The voltage's 34 000 samples flag 1.03; on
-        tapping_shortfall the true model's own fit left it at 1.06 after 30 iterations."""
+        (:class:`...core.settings.DiscoverySettings`).  The voltage's 34 000 samples flag 1.03; on
+        tapping_shortfall the true model's own fit left it at 1.06 through three continuity stages."""
         left = max((v - 1.0 for v in self.fit.beyond_noise.values()), default=0.0)
         removed = 1.0 - self.fit.excess / excess_before if excess_before > 0 else 0.0
         return not self.fit.at_noise and removed >= settings.form_incomplete and left <= settings.form_excess
@@ -215,10 +215,10 @@ class FittedForm:
 class Ranking:
     """Fitted forms that pay their terms (positive BIC gain), best first (``order``); of those the first
     is not told apart from (within :data:`MARGIN` of its BIC gain, at noise or form incomplete), ``equivalent`` are the
-    same physics as it (itself included), in the order they are named (:func:`..core.naming.naming_order`:
+    same physics as it (itself included), in the order they are named (:func:`...core.naming.naming_order`:
     the cause before its consequences, an input before a part), and ``rivals`` are not; ``names``: the
     keys named, in that order, with the flow missing from a balance that the first amounts to
-    (:func:`..core.naming.balance_moved`) where no fit of it is among them."""
+    (:func:`...core.naming.balance_moved`) where no fit of it is among them."""
 
     order: list[FittedForm]
     equivalent: list[FittedForm]
@@ -259,19 +259,19 @@ def ranked_fits(
     settings: DiscoverySettings | None = None,
 ) -> Ranking:
     """The fits ranked and the first's rivals (:class:`Ranking`); physics compared at the states x
-    (N, 8) and inputs u (N, 5) (:func:`..core.naming.same_physics`).  A fit pays where every cell pays
+    (N, 8) and inputs u (N, 5) (:func:`...core.naming.same_physics`).  A fit pays where every cell pays
     its share of the terms' price (``penalty``, log(samples), a term): an effect missing from the
     model is missing in every cell, and a gain that one cell alone carries fits that cell's own
     misplacement.  On tapping_shortfall's first two cells a wall heat capacity in c2 gained 1 and 226
     (its filter's likelihood: -22 and 812) where the right tapping gain gained 13 and 20.  Where a
     cell's record cannot show the effect, nothing is named.  Fits that leave every channel at
-    its noise (:attr:`.shooting.ShootingFit.at_noise`), or whose form is only incomplete against the
+    its noise (:attr:`.fit.ShootingFit.at_noise`), or whose form is only incomplete against the
     uncorrected fit's excess ``excess_before`` (:meth:`FittedForm.form_incomplete`), come first, by
     BIC gain: differences in the excess there are noise.  The rest follow by their excess (to 0.1
     noise variances), then BIC gain; where the first is one of them, nothing is told apart (the
     outcome is unexplained).  Where the
-    first is a flow (:attr:`..core.hypotheses.Hypothesis.is_flow`) that changes one balance's rate alone,
-    the flow missing from that balance is named with it, and first where :func:`..core.naming.naming_order`
+    first is a flow (:attr:`...core.hypotheses.Hypothesis.is_flow`) that changes one balance's rate alone,
+    the flow missing from that balance is named with it, and first where :func:`...core.naming.naming_order`
     says so: on top_heat_loss a constant 20.6 kW taken from the bath's heat of freezing was the best fit
     of the bath's heat loss.  Not a property: a bath heat capacity 10 % lower changes the bath energy's
     rate alone, and is that property, not a missing flow (it was named wrongly so on bath_heat_capacity)."""
