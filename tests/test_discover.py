@@ -49,6 +49,27 @@ def test_noise_estimate_from_second_differences(clean, rng):
     np.testing.assert_allclose(estimate_noise(noisy), true_std, rtol=0.05)
 
 
+def test_a_channel_that_reads_a_rippling_input_has_its_noise_estimated_net_of_the_ripple(rng):
+    """A pot voltage read as 4.2 V + 17 µΩ × a line current of 140 kA ± 0.3 % white ripple, plus a
+    slow drift and a 5 mV sensor (the pot line's slope and sensor): the ripple moves the voltage by
+    7 mV a step, so the plain estimate is 1.7 times the sensor's 5 mV; net of the current's second
+    differences it is the sensor's. Inputs that never move (u1, u3..u5 here) change nothing."""
+    steps, cells = 4000, 3
+    current = 140e3 * (1.0 + 0.003 * rng.standard_normal((cells, steps)))
+    drift = 0.05 * np.sin(np.linspace(0.0, 3.0, steps))
+    voltage = 4.2 + 17e-6 * current + drift + 0.005 * rng.standard_normal((cells, steps))
+    inputs = np.zeros((cells, steps, 5))
+    inputs[..., 1] = current
+    inputs[..., 4] = 0.05
+    plain = estimate_noise(voltage[..., None])[0]
+    net = estimate_noise(voltage[..., None], inputs)[0]
+    assert plain > 1.5 * 0.005
+    assert net == pytest.approx(0.005, rel=0.03)
+    still = inputs.copy()
+    still[..., 1] = 140e3
+    assert estimate_noise(voltage[..., None], still)[0] == plain
+
+
 def test_no_equation_is_flagged_on_noisy_data_from_the_model_itself(clean, model, rng):
     noisy = add_noise(clean.x, 0.01, rng)
     form = WeakForm(64, 10.0)

@@ -55,15 +55,17 @@ class Observations:
         return prior(self.y, self.channels, self.start)
 
 
-def channel_noise(y: np.ndarray, channels: Sequence[str], declared: Mapping[str, float]) -> np.ndarray:
-    """Noise std per channel (C,): estimated from second differences where a channel is sampled at
-    every step, else the declared sensor noise (a channel sampled hours apart cannot tell its noise
-    from the process)."""
+def channel_noise(
+    y: np.ndarray, channels: Sequence[str], declared: Mapping[str, float], inputs: np.ndarray | None = None
+) -> np.ndarray:
+    """Noise std per channel (C,): estimated from second differences (net of the ``inputs``' (n, T, 5)
+    where given) where a channel is sampled at every step, else the declared sensor noise (a channel
+    sampled hours apart cannot tell its noise from the process)."""
     noise = []
     for c, name in enumerate(channels):
         values = y[..., c]
         if np.isfinite(values).all():
-            noise.append(float(estimate_noise(values[..., None])[0]))
+            noise.append(float(estimate_noise(values[..., None], inputs)[0]))
         elif name in declared:
             noise.append(float(declared[name]))
         else:

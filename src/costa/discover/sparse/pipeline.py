@@ -64,7 +64,7 @@ def observations(table: pd.DataFrame, declared_noise: Mapping[str, float], sourc
     """The measured channels of a checked table, with each channel's noise std."""
     measured = measured_trajectories(table)
     try:
-        noise = channel_noise(measured.values, measured.channels, declared_noise)
+        noise = channel_noise(measured.values, measured.channels, declared_noise, measured.inputs)
     except ValueError as error:
         raise TrajectoryDataError(f"{source}: {error}") from None
     return Observations(measured.values, measured.inputs, measured.channels, noise, measured.dt)
