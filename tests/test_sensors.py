@@ -128,3 +128,22 @@ def test_a_crane_scale_reads_each_tap_once_and_weighs_what_left_the_cell(truth):
     assert Sensor("m_tap", AT_TAPS).interval == "at each tap" and voltage.interval == "every 10 s"
     with pytest.raises(ValueError, match="every_s is a number of seconds or 'tap'"):
         Sensor("m_tap", "daily", 1.0)
+
+
+def test_a_sensor_sets_findings_describe_the_cells_it_simulates(default_config):
+    """The data line of a case's findings counts the sensor set's own cells (a pot line: 6 to learn
+    from, 3 held out, 5 days), not the discovery's 40 and 20, and gives the case's noise level only
+    where a channel takes it."""
+    from costa.discover.cases.tables import simulated_data
+
+    assert (
+        simulated_data(default_config, "no_effect")
+        == "40 simulated trajectories (20 held out) with 1.0% measurement noise"
+    )
+    assert simulated_data(default_config, "no_effect", "plant") == "12 simulated trajectories of 48 h (6 held out)"
+    assert (
+        simulated_data(default_config, "top_heat_loss", "pot_line") == "6 simulated trajectories of 120 h (3 held out)"
+    )
+    assert simulated_data(default_config, "top_heat_loss", "partial").endswith(
+        "(20 held out) with 1.0% measurement noise"
+    )

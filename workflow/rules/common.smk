@@ -200,6 +200,22 @@ def user_measurements(wildcards):
     return user["path"]
 
 
+def simulated_meta(case_name, sensors="full"):
+    """What findings.json records about a shipped or unshipped case's simulated data, measured by a
+    sensor set, and what is hidden in it."""
+    from costa.discover.cases.tables import simulated_data
+    from costa.discover.cases.unshipped import find_case
+
+    case = find_case(case_name)
+    return {
+        "data": simulated_data(config, case_name, sensors),
+        "hidden": case.hidden,
+        "kind": case.kind,
+        "expected_equations": list(case.expected_equations),
+        "accepted": list(case.accepted),
+    }
+
+
 def discovery_meta(wildcards):
     """What findings.json records about the data (and, for a shipped case, what is hidden)."""
     if wildcards.case == USER_CASE:
@@ -209,18 +225,7 @@ def discovery_meta(wildcards):
             "data": f"measurements from {user['path']}{events}",
             "unlogged_inputs": user["unlogged_inputs"],
         }
-    from costa.discover.cases.unshipped import find_case
-
-    case = find_case(wildcards.case)
-    d = config["discovery"]
-    return {
-        "data": f"{d['trajectories']} simulated trajectories ({d['held_out_trajectories']} held out) "
-        f"with {case.noise:.1%} measurement noise",
-        "hidden": case.hidden,
-        "kind": case.kind,
-        "expected_equations": list(case.expected_equations),
-        "accepted": list(case.accepted),
-    }
+    return simulated_meta(wildcards.case)
 
 
 SENSOR_SETS = list(config["discovery"]["sensors"])
@@ -241,12 +246,10 @@ def sensor_meta(wildcards):
         + (f" (noise {spec['noise']:g})" if "noise" in spec else "")
         for channel, spec in sensor_set["channels"].items()
     )
-    meta = discovery_meta(wildcards)
-    hours = sensor_set.get("hours")
-    length = f" of {hours:g} h" if hours else ""
+    meta = simulated_meta(wildcards.case, wildcards.sensors)
     return meta | {
         "sensors": wildcards.sensors,
-        "data": meta["data"].replace("trajectories", f"trajectories{length}", 1)
+        "data": meta["data"]
         + f", measured by the {wildcards.sensors!r} sensors: {described}",
     }
 

@@ -15,7 +15,7 @@ from ...simulate import SimulationSettings, simulate_set
 from .shipped import HiddenEffectCase
 from .unshipped import find_case
 
-__all__ = ["case_tables"]
+__all__ = ["case_tables", "simulated_data"]
 
 
 def case_tables(
@@ -35,11 +35,7 @@ def case_tables(
     settings = replace(settings, steps=sensor_set.steps(settings.dt, settings.steps), operation=sensor_set.operation)
     true, _ = case.models(model_from_config(config["physics"])[0])
     tables = []
-    counts = (
-        ("train", sensor_set.trajectories or discovery["trajectories"]),
-        ("held_out", sensor_set.held_out_trajectories or discovery["held_out_trajectories"]),
-    )
-    for split, count in counts:
+    for split, count in _counts(discovery, sensor_set).items():
         stream = f"discovery/{case.name}/{split}"
         trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream)
         x, u = trajectories.x, trajectories.u
@@ -49,3 +45,25 @@ def case_tables(
         rng = seeds.numpy_generator(config["seed"], 0, noise)
         tables.append(measure(true, x, u, settings.dt, sensor_set, rng, default))
     return tables[0], tables[1]
+
+
+def simulated_data(config: Mapping, case: str, sensors: str = "full") -> str:
+    """What a case's simulated data are, in words: its cells to learn from and held out (as
+    :func:`case_tables` simulates them for the sensor set), their length where the set gives it, and
+    the case's noise level where a channel of the set takes it (one that declares no noise of its own)."""
+    discovery = config["discovery"]
+    sensor_set = sensor_sets_from_config(discovery["sensor_sets"])[sensors]
+    counts = _counts(discovery, sensor_set)
+    given = discovery["sensor_sets"][sensors]
+    length = f" of {given['hours']:g} h" if given.get("hours") else ""
+    declared = all("noise" in spec for spec in given["channels"].values())
+    noise = "" if declared else f" with {find_case(case).noise:.1%} measurement noise"
+    return f"{counts['train']} simulated trajectories{length} ({counts['held_out']} held out){noise}"
+
+
+def _counts(discovery: Mapping, sensor_set) -> dict[str, int]:
+    """Trajectories to learn from and held out: the sensor set's, else the discovery's."""
+    return {
+        "train": sensor_set.trajectories or discovery["trajectories"],
+        "held_out": sensor_set.held_out_trajectories or discovery["held_out_trajectories"],
+    }
