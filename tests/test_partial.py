@@ -300,6 +300,51 @@ def test_the_gaps_rollouts_start_from_the_first_samples_only(default_config):
     assert gaps[0]["error"].tolist() == gaps[1]["error"].tolist()
 
 
+def test_restarted_forecasts_tile_the_record_each_scored_after_the_samples_that_start_it():
+    """Every step is scored by exactly one forecast; each restarted one only after the first
+    ``start_steps`` samples of its own, which place its start; one forecast where none restarts."""
+    from costa.discover.sparse.gap import forecast_pieces
+
+    assert forecast_pieces(4320, 360, None) == [(0, 4320, 0)]
+    for steps, start, restart in ((4320, 360, 1440), (43200, 2880, 8640), (1000, 300, 200), (5000, 100, 5000)):
+        pieces = forecast_pieces(steps, start, restart)
+        scored = [(first, end) for _, end, first in pieces]
+        assert scored[0][0] == 0 and scored[-1][1] == steps
+        assert all(a[1] == b[0] and a[0] < a[1] for a, b in zip(scored, scored[1:], strict=False))
+        assert all(first - begin == start for begin, _, first in pieces[1:])
+        assert all(b[0] - a[0] == restart for a, b in zip(pieces, pieces[1:], strict=False))
+        assert all(end - begin <= restart + start for begin, end, _ in pieces)
+
+
+@pytest.mark.integration
+def test_a_restarted_forecast_forgets_feeding_the_log_missed(default_config):
+    """A controlled cell's log replayed open-loop drifts for good on what it misses: here an hour and
+    a half of alumina feed logged as none.  The forecast over the whole record is off after it; the
+    forecasts restarted every 8 h (where the hand samples are), each from the state its model
+    estimates on its own first hour, score the hours after the next restart exactly as on the true
+    log."""
+    from costa.discover.sparse.gap import measured_gap
+    from costa.metrics import EvaluationSettings
+
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=12, trajectories=2, held_out_trajectories=1)
+    train, _ = case_tables(config, "no_effect", "plant")
+    obs = observations(train, PLANT_NOISE, "plant")
+    model = starting_model(config, "full")
+    missed = obs.u.copy()
+    missed[:, 400:940, 0] = 0.0  # inside the first forecast, before the second starts (2880)
+    windows = {"short": (0, 360), "first": (360, 3240), "later": (3240, obs.y.shape[1])}
+    settings = EvaluationSettings(windows, {"short": 360})
+    scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0)
+
+    def later(u, restart):
+        _, per_channel = measured_gap({"m": model}, replace(obs, u=u), scale, settings, 360, restart)
+        return per_channel[per_channel["window"] == "later"]["error"].to_numpy()
+
+    np.testing.assert_array_equal(later(missed, 2880), later(obs.u, 2880))
+    assert (later(missed, None) > 2 * later(obs.u, None)).any()
+
+
 def test_where_the_start_needs_the_first_hand_samples_the_gaps_first_window_holds_them():
     """A 48 h pot-line record is scored 0-8 h (where the start is placed), 8-24 h and 24-48 h: the
     paper's fractions (0-58 min, 58 min-24 h, 24-48 h) would score the medium window on samples that

@@ -267,6 +267,11 @@ def findings(
             f"channel std over the sampled steps), each rollout from the state its model estimates from the first "
             f"{result.start_steps} samples"
         )
+        if result.restart_steps:
+            definition += (
+                f", and again every {result.restart_steps} samples from the state it estimates from the first "
+                f"{result.start_steps} samples then (scored after them)"
+            )
     else:
         measured = {"measurements": "full", "flagged_equations": first["flagged"]}
         noise = {s: float(v) for s, v in zip(STATES, result.noise, strict=True)}

@@ -95,18 +95,29 @@ def settings_from_config(config: Mapping) -> DiscoverySettings:
     )  # fmt: skip
 
 
+def _record_settings(config: Mapping, name: str) -> Mapping:
+    """What data set ``name`` declares of itself: your ``discovery.user_data``, or the sensor set of a
+    shipped case under one ("case/sensors"); empty otherwise."""
+    user = config["discovery"]["user_data"]
+    if user and user["name"] == name:
+        return user
+    return config["discovery"]["sensor_sets"].get(name.rpartition("/")[2], {}) if "/" in name else {}
+
+
 def search_settings(config: Mapping, name: str) -> DiscoverySettings:
     """How the discovery of data set ``name`` decides, with its own random stream.  A shipped case
     under a sensor set (``name`` "case/sensors") or your data (``discovery.user_data``) take that
     set's or your ``shooting_cells``: a pot line's record is then decided by multiple shooting."""
-    user = config["discovery"]["user_data"]
-    if user and user["name"] == name:
-        shooting = user.get("shooting_cells", 0)
-    else:
-        sensors = config["discovery"]["sensor_sets"].get(name.rpartition("/")[2], {}) if "/" in name else {}
-        shooting = sensors.get("shooting_cells", 0)
+    shooting = _record_settings(config, name).get("shooting_cells", 0)
     seed = seeds.stream(config["seed"], 0, f"discovery/{name}/search")
     return replace(settings_from_config(config), seed=seed, shooting_cells=shooting)
+
+
+def gap_restart_s(config: Mapping, name: str) -> float | None:
+    """How often [s] the gap's forecasts of data set ``name`` restart from the state estimated then:
+    its sensor set's or your ``gap_restart_hours`` (None: one forecast over each held-out record)."""
+    hours = _record_settings(config, name).get("gap_restart_hours")
+    return 3600.0 * hours if hours else None
 
 
 def run_discovery(
@@ -132,7 +143,16 @@ def run_discovery(
     if incomplete_states(train) or incomplete_states(held_out):
         evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
         result = run_partial_discovery(
-            train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng, first_round
+            train,
+            held_out,
+            start,
+            settings,
+            evaluation,
+            declared_noise or {},
+            source,
+            floor_rng,
+            first_round,
+            gap_restart_s(config, name),
         )
     else:
         result = run_full_state_discovery(

@@ -16,7 +16,7 @@ from ...physics import CellModel
 from .observations import Observations
 from .observed import estimate_states
 
-__all__ = ["measured_channel_error", "measured_gap", "measured_noise_floor"]
+__all__ = ["forecast_pieces", "measured_channel_error", "measured_gap", "measured_noise_floor"]
 
 
 def measured_channel_error(
@@ -38,12 +38,32 @@ def _rollout_from_estimate(model: CellModel, obs: Observations, start_steps: int
     made from the first ``start_steps`` samples only (where the first state is searched, it is
     searched on those samples too, under ``model``: nothing the rollout is scored on after them
     places its start, and each model starts where it would place the cell itself)."""
-    early = dataclasses.replace(obs, y=obs.y[:, :start_steps], u=obs.u[:, :start_steps]).with_start(model)
+    early = obs.steps(0, start_steps).with_start(model)
     estimated = estimate_states(model, early.y, early.u, early.channels, early.noise, early.dt, start=early.start)
     first = estimated.mean[:, :1]
     start = np.concatenate([first, np.zeros((obs.y.shape[0], obs.y.shape[1] - 1, 8))], axis=1)
     with np.errstate(all="ignore"):
         return observe(model, rollout_physics(model, start, obs.u, obs.dt), obs.u, obs.channels)
+
+
+def forecast_pieces(steps: int, start_steps: int, restart_steps: int | None) -> list[tuple[int, int, int]]:
+    """(begin, end, scored from) of each forecast over a record of ``steps``: one from the first step,
+    scored throughout; or, every ``restart_steps``, one that starts from the state estimated on its
+    own first ``start_steps`` samples and is scored after them until the next one is (the first
+    from its start, as the single one)."""
+    if not restart_steps:
+        return [(0, steps, 0)]
+    begins = range(0, steps - start_steps, restart_steps)
+    return [(b, min(steps, b + restart_steps + start_steps), b + start_steps if b else 0) for b in begins]
+
+
+def _forecast(model: CellModel, obs: Observations, start_steps: int, restart_steps: int | None) -> np.ndarray:
+    """Channels (n, K, C) of ``model``'s forecasts, each piece (:func:`forecast_pieces`) where it is scored."""
+    forecast = np.full(obs.y.shape, np.nan)
+    for begin, end, scored in forecast_pieces(obs.y.shape[1], start_steps, restart_steps):
+        piece = _rollout_from_estimate(model, obs.steps(begin, end), start_steps)
+        forecast[:, scored:end] = piece[:, scored - begin :]
+    return forecast
 
 
 def measured_gap(
@@ -52,16 +72,19 @@ def measured_gap(
     scale: np.ndarray,
     settings: EvaluationSettings,
     start_steps: int,
+    restart_steps: int | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Each model's gap on held-out partial measurements ``obs``: rolled out from the state it
-    estimates from the first ``start_steps`` samples, scored on the measured channels per window.
+    estimates from the first ``start_steps`` samples, scored on the measured channels per window;
+    ``restart_steps``: a forecast restarted that often from the state it estimates then
+    (:func:`forecast_pieces`: a controlled cell's logged feeds replayed open-loop for days drift).
 
     Returns (per window: model, window, error (median over trajectories of the mean error),
     mean, blowups (as coded), rollouts) and (per channel: model, window, channel, error).
     """
     rows, per_channel = [], []
     for name, model in models.items():
-        forecast = _rollout_from_estimate(model, obs, start_steps)
+        forecast = _forecast(model, obs, start_steps, restart_steps)
         rows += _window_rows(name, measured_channel_error(forecast, obs.y, scale), settings)
         for c, channel in enumerate(obs.channels):
             error = measured_channel_error(forecast[..., c : c + 1], obs.y[..., c : c + 1], scale[c : c + 1])
@@ -94,12 +117,18 @@ def measured_noise_floor(
     settings: EvaluationSettings,
     start_steps: int,
     rng: np.random.Generator,
+    restart_steps: int | None = None,
 ) -> dict[str, float]:
     """The gap a perfect model would still show on these sensors: ``model`` plays the truth from
     its own estimated start, its channels are sampled where ``obs`` was, with the sensors' noise, and the
-    same procedure (estimate the start, roll out, score) runs on that synthetic record."""
-    truth = _rollout_from_estimate(model, obs, start_steps)
-    measured = np.where(np.isfinite(obs.y), truth + rng.normal(size=truth.shape) * obs.noise, np.nan)
-    forecast = _rollout_from_estimate(model, dataclasses.replace(obs, y=measured), start_steps)
-    rows = _window_rows("floor", measured_channel_error(forecast, measured, scale), settings)
+    same procedure (estimate the start, roll out, score) runs on that synthetic record; each forecast
+    piece (:func:`forecast_pieces`) on its own synthetic record."""
+    error = np.full(obs.y.shape[:2], np.nan)
+    for begin, end, scored in forecast_pieces(obs.y.shape[1], start_steps, restart_steps):
+        piece = obs.steps(begin, end)
+        truth = _rollout_from_estimate(model, piece, start_steps)
+        measured = np.where(np.isfinite(piece.y), truth + rng.normal(size=truth.shape) * piece.noise, np.nan)
+        forecast = _rollout_from_estimate(model, dataclasses.replace(piece, y=measured), start_steps)
+        error[:, scored:end] = measured_channel_error(forecast, measured, scale)[:, scored - begin :]
+    rows = _window_rows("floor", error, settings)
     return {row["window"]: row["error"] for row in rows}

@@ -31,6 +31,10 @@ class Observations:
         start = None if self.start is None else self.start[trajectories]
         return Observations(self.y[trajectories], self.u[trajectories], self.channels, self.noise, self.dt, start)
 
+    def steps(self, begin: int, end: int) -> Observations:
+        """Steps [begin, end) of every cell, their first state not yet searched."""
+        return Observations(self.y[:, begin:end], self.u[:, begin:end], self.channels, self.noise, self.dt)
+
     def with_start(self, model: CellModel) -> Observations:
         """These observations with each first state searched under ``model`` where one voltage
         sample cannot place it (:func:`.observed.searched_start`)."""

@@ -4,8 +4,9 @@ The tables follow the data contract of :mod:`costa.data` (any channel may be abs
 sampled at some steps only).  Channels sampled at every step get their noise from the
 data; a channel sampled less often needs its sensor's noise declared.  The gap is
 measured on the held-out trajectories' measured channels: each model is rolled out
-from the state it estimates from the first ``start_steps`` samples, and scored
-against what was measured after, beside the noise floor of the same procedure.
+from the state it estimates from the first ``start_steps`` samples (on a controlled cell,
+again each day from the samples then), and scored against what was measured after, beside
+the noise floor of the same procedure.
 """
 
 from __future__ import annotations
@@ -57,6 +58,7 @@ class PartialResult:
     windows: dict[str, tuple[int, int]]
     dt: float
     start_steps: int
+    restart_steps: int | None = None  # the gap's forecasts restarted that often (:func:`.gap.forecast_pieces`)
     constant_inputs: tuple[str, ...] = ()  # inputs that did not vary in the training data
 
 
@@ -170,11 +172,13 @@ def run_partial_discovery(
     source: str,
     rng: np.random.Generator,
     first_round: tuple[str | Path, Sequence[str | Path]] | None = None,
+    restart_s: float | None = None,
 ) -> PartialResult:
     """Discover on ``train``; the gap of the starting and corrected models on ``held_out``.
 
     ``evaluation`` gives the gap's windows; the state a rollout starts from is estimated
-    from the first window's samples.  ``first_round``: the paths of the first round's screen
+    from the first window's samples, and every ``restart_s`` [s] again from the samples then
+    (:func:`.gap.forecast_pieces`; None: one rollout over the whole record).  ``first_round``: the paths of the first round's screen
     and fit records, where separate jobs made them (:func:`screen_first_round`,
     :func:`fit_first_round`); the findings are the same.
     """
@@ -199,8 +203,9 @@ def run_partial_discovery(
     corrected = next((r.corrected for r in reversed(rounds) if r.corrected is not None), start)
     scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)
     models = {"starting model": start} | ({"corrected model": corrected} if corrected is not start else {})
-    gap, per_channel = measured_gap(models, held, scale, evaluation, start_steps)
-    floor = measured_noise_floor(corrected, held, scale, evaluation, start_steps, rng)
+    restart = round(restart_s / held.dt) if restart_s else None
+    gap, per_channel = measured_gap(models, held, scale, evaluation, start_steps, restart)
+    floor = measured_noise_floor(corrected, held, scale, evaluation, start_steps, rng, restart)
     return PartialResult(
         rounds,
         obs.channels,
@@ -213,4 +218,5 @@ def run_partial_discovery(
         dict(evaluation.windows),
         obs.dt,
         start_steps,
+        restart,
     )

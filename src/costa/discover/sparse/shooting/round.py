@@ -60,8 +60,7 @@ def shooting_cells(obs: Observations, cells: int) -> Observations:
     """The first ``cells`` cells, cut to whole segments."""
     steps = round(SEGMENT_S / obs.dt)
     used = (obs.y.shape[1] // steps) * steps
-    few = obs.subset(slice(0, cells))
-    return replace(few, y=few.y[:, :used], u=few.u[:, :used])
+    return obs.subset(slice(0, cells)).steps(0, used)
 
 
 @dataclass(frozen=True)
