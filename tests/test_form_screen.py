@@ -6,7 +6,7 @@ import numpy as np
 from conftest import random_operating_points
 
 from costa.discover.core.hypotheses import candidate_hypotheses
-from costa.discover.core.naming import balance_moved
+from costa.discover.core.naming import balance_moved, causes_through
 from costa.discover.sparse.shooting.fit import ShootingFit
 from costa.discover.sparse.shooting.screen import FittedForm, _forward, ranked_fits, states_eliminated
 
@@ -133,6 +133,28 @@ def test_a_property_that_moves_one_balance_alone_is_named_as_itself(model):
     capacity = _fitted(model, hypotheses, "property:bath_heat_capacity", 0.1124, 5000.0, {"x6": 1.0, "U_cell": 1.0})
     assert balance_moved(capacity.corrected, model, x, u) == "bath_energy"
     assert ranked_fits([capacity], model, x, u, PENALTY, EXCESS).verdict == "named: property:bath_heat_capacity"
+
+
+def test_a_voltage_fit_is_named_as_the_parts_that_act_on_the_cell_only_through_the_voltage(model):
+    """U = g5 + u2 u5 / (2620 g2), with the bubble voltage g5 = 3.8168e-6 g3 g4 u2 / (g2 (1 - g3)), and
+    nothing else reads g2, g3, g4 or g5: every correction of the voltage is one of the bath conductivity,
+    the bubbles' coverage or thickness, or their voltage, and the cause is named first.  The liquidus
+    temperature (the freezing rate and the ledge's heat flows read it) acts through no single part;
+    the electric power u2 U has no such cause, since a sensor reads U itself."""
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    x, u = random_operating_points(np.random.default_rng(0), 20)
+    causes = ["bath_conductivity", "bubble_coverage", "bubble_thickness", "bubble_voltage"]
+    assert causes_through("cell_voltage", model, x, u) == causes
+    assert causes_through("bubble_voltage", model, x, u) == ["bubble_coverage", "bubble_thickness"]
+    for part in ("electric_power", "freezing_rate", "bath_ledge_heat", "liquidus_temperature", "bath_conductivity"):
+        assert causes_through(part, model, x, u) == [], part
+    voltage = _fitted(model, hypotheses, "part:cell_voltage", 0.05, 5000.0, {"x6": 1.0, "U_cell": 1.0})
+    assert ranked_fits([voltage], model, x, u, PENALTY, EXCESS).verdict == (
+        "named: part:bath_conductivity, fitted as part:cell_voltage (the same physics: "
+        "['part:bubble_coverage', 'part:bubble_thickness', 'part:bubble_voltage'])"
+    )
+    conductivity = _fitted(model, hypotheses, "part:bath_conductivity", -0.1, 5000.0, {"x6": 1.0, "U_cell": 1.0})
+    assert ranked_fits([conductivity], model, x, u, PENALTY, EXCESS).verdict == "named: part:bath_conductivity"
 
 
 def test_a_fit_that_removes_nearly_all_the_excess_is_named_with_its_forms_small_error(model):

@@ -20,7 +20,10 @@ import numpy as np
 from .physics import CellModel, CellVariables
 from .variables import CHANNELS, INPUTS, STATES
 
-__all__ = ["observe"]
+__all__ = ["SENSED_PART", "observe"]
+
+#: the one part a sensor reads: the voltages (U_cell, U_pot) are computed from it
+SENSED_PART = "cell_voltage"
 
 
 def observe(model: CellModel, x: np.ndarray, u: np.ndarray, channels: Sequence[str]) -> np.ndarray:
@@ -33,6 +36,6 @@ def observe(model: CellModel, x: np.ndarray, u: np.ndarray, channels: Sequence[s
     if "m_tap" in channels:
         derived["m_tap"] = model.delivered_inputs(x, u)[..., INPUTS.index("u4")]
     if {"U_cell", "U_pot"} & set(channels):
-        derived["U_cell"] = model.quantities(x, u)["cell_voltage"]
+        derived["U_cell"] = model.quantities(x, u)[SENSED_PART]
         derived["U_pot"] = derived["U_cell"] + model.params.E0 + model.params.R_ext * v.u2
     return np.stack([x[..., STATES.index(c)] if c in STATES else derived[c] for c in channels], axis=-1)

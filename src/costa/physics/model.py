@@ -200,6 +200,15 @@ class CellModel:
             reads[name] = frozenset(seen)
         return reads
 
+    def flow_reads(self, x: Array, u: Array) -> frozenset[str]:
+        """The parts (and cell variables, constants) the balances' flows read directly, recorded by
+        evaluating them at states x and inputs u."""
+        v = self._variables(x, u)
+        k, q = self._evaluate(v)
+        seen: set[str] = set()
+        self._flows(_Recorder(v, seen), _Recorder(k, seen), _Recorder(q, seen))
+        return frozenset(seen)
+
     def balance_flows(self, x: Array, u: Array) -> dict[str, Array]:
         """The net flow into each balance, in kg/s or W (before heat capacities)."""
         v = self._variables(x, u)

@@ -6,12 +6,12 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ...observe import observe
+from ...observe import SENSED_PART, observe
 from ...physics import BALANCES, PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
 from .hypotheses import PREFERENCE, Hypothesis
 
-__all__ = ["balance_moved", "naming_order", "removal", "same_physics"]
+__all__ = ["balance_moved", "causes_through", "naming_order", "removal", "same_physics"]
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
 SAME_PHYSICS = 0.05
@@ -94,3 +94,33 @@ def balance_moved(corrected: CellModel, model: CellModel, x: np.ndarray, u: np.n
     if size[moved] == 0 or np.delete(size, moved).max() >= SAME_PHYSICS * size[moved]:
         return None
     return next(balance for balance, (state, _) in BALANCES.items() if state == f"x{moved + 1}")
+
+
+def causes_through(part: str, model: CellModel, x: np.ndarray, u: np.ndarray) -> list[str]:
+    """The parts computed before ``part`` whose every effect on the state rates and the sensed voltage
+    passes through it, and that move it one way at the states x (..., 8) and inputs u (..., 5): any
+    correction of ``part`` is then one of each of them, and no measurement tells which.  The bath
+    conductivity g2, the bubbles' coverage g3 and thickness g4 and their voltage g5 act on the cell only
+    through its voltage U = g5 + u2 u5 / (2620 g2); the liquidus temperature, read by the freezing rate
+    and the ledge's heat flows, acts through none of them alone."""
+    reads = model.reads(x[:1], u[:1])
+    sinks = model.flow_reads(x[:1], u[:1]) | {SENSED_PART}
+    with np.errstate(all="ignore"):
+        before = model.quantities(x, u)[part]
+    causes = []
+    for cause in PART_ORDER[: PART_ORDER.index(part)]:
+        reached, frontier = {cause}, [cause]
+        while frontier:  # what the cause changes, not through ``part``
+            name = frontier.pop()
+            new = {p for p, r in reads.items() if name in r and p != part} - reached
+            reached |= new
+            frontier += new
+        if reached & sinks or not any(part in reads and name in reads[part] for name in reached):
+            continue
+        p = model.parts[cause]
+        bumped = model.with_part(cause, p.renamed(f"1.01 ({p.formula})", lambda v, k, q, p=p: 1.01 * p(v, k, q)))
+        with np.errstate(all="ignore"):
+            moved = bumped.quantities(x, u)[part] - before
+        if (moved > 0).all() or (moved < 0).all():
+            causes.append(cause)
+    return causes

@@ -213,7 +213,10 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     name = _hypothesis(model, ranking.names[0])
     what = name.describe(model)
     if name != chosen.hypothesis:
-        what += f" (fitted as {chosen.hypothesis.key}, the same flow)"
+        what += f" (fitted as {chosen.hypothesis.key}, the same physics)"
+    others = [key for key in ranking.names[1:] if key != chosen.hypothesis.key]
+    if others:
+        what += f"; no measurement tells it from {', '.join(others)}, the same physics"
     if ranking.incomplete:
         left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
         what += f" (form incomplete: its closed form leaves {left} times the noise variance on {cells})"
