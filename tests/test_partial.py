@@ -316,6 +316,20 @@ def test_restarted_forecasts_tile_the_record_each_scored_after_the_samples_that_
         assert all(end - begin <= restart + start for begin, end, _ in pieces)
 
 
+def test_a_controlled_cells_gap_restarts_as_its_sensor_set_or_your_data_say(default_config):
+    """``gap_restart_hours`` of the sensor set (the shipped pot_line set: 24) or of ``user_data`` sets how
+    often the gap's forecasts restart; the other sets, the full-data cases and your table without it: never."""
+    from costa.discover.pipeline import gap_restart_s
+
+    config = copy.deepcopy(default_config)
+    assert gap_restart_s(config, "no_effect/pot_line") == 86400.0
+    assert gap_restart_s(config, "no_effect/plant") is None and gap_restart_s(config, "paper_liquidus") is None
+    config["discovery"]["user_data"] = {"name": "pot12", "gap_restart_hours": 8}
+    assert gap_restart_s(config, "pot12") == 28800.0
+    config["discovery"]["user_data"] = {"name": "pot12"}
+    assert gap_restart_s(config, "pot12") is None
+
+
 @pytest.mark.integration
 def test_a_restarted_forecast_forgets_feeding_the_log_missed(default_config):
     """A controlled cell's log replayed open-loop drifts for good on what it misses: here an hour and
