@@ -137,14 +137,18 @@ def test_a_property_that_moves_one_balance_alone_is_named_as_itself(model):
 
 def test_a_voltage_fit_is_named_as_the_parts_that_act_on_the_cell_only_through_the_voltage(model):
     """U = g5 + u2 u5 / (2620 g2), with the bubble voltage g5 = 3.8168e-6 g3 g4 u2 / (g2 (1 - g3)), and
-    nothing else reads g2, g3, g4 or g5: every correction of the voltage is one of the bath conductivity,
-    the bubbles' coverage or thickness, or their voltage, and the cause is named first.  The liquidus
+    nothing else reads g2, g3, g4 or g5: every correction of the voltage is, point by point, one of the
+    bath conductivity, the bubbles' coverage or thickness, or their voltage (which turns across the
+    coverage's pole at 2.06 % alumina), and the cause is named first.  The liquidus
     temperature (the freezing rate and the ledge's heat flows read it) acts through no single part;
     the electric power u2 U has no such cause, since a sensor reads U itself."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     x, u = random_operating_points(np.random.default_rng(0), 20)
     causes = ["bath_conductivity", "bubble_coverage", "bubble_thickness", "bubble_voltage"]
     assert causes_through("cell_voltage", model, x, u) == causes
+    low = x.copy()  # alumina from 0.5 % to 12 %: across the bubble coverage's pole at 2.06 %
+    low[:, 1] = np.linspace(0.005, 0.12, len(x)) / (1 - np.linspace(0.005, 0.12, len(x))) * (x[:, 2] + x[:, 3])
+    assert causes_through("cell_voltage", model, low, u) == causes
     assert causes_through("bubble_voltage", model, x, u) == ["bubble_coverage", "bubble_thickness"]
     for part in ("electric_power", "freezing_rate", "bath_ledge_heat", "liquidus_temperature", "bath_conductivity"):
         assert causes_through(part, model, x, u) == [], part

@@ -98,8 +98,10 @@ def balance_moved(corrected: CellModel, model: CellModel, x: np.ndarray, u: np.n
 
 def causes_through(part: str, model: CellModel, x: np.ndarray, u: np.ndarray) -> list[str]:
     """The parts computed before ``part`` whose every effect on the state rates and the sensed voltage
-    passes through it, and that move it one way at the states x (..., 8) and inputs u (..., 5): any
-    correction of ``part`` is then one of each of them, and no measurement tells which.  The bath
+    passes through it, and that move it at each of the states x (..., 8) and inputs u (..., 5) where it
+    is finite: any correction of ``part`` is then, point by point, one of each of them, and no
+    measurement tells which.  (The direction may differ between points: the bubble coverage's formula
+    has a pole at 2.06 % alumina, across which the bubble voltage turns.)  The bath
     conductivity g2, the bubbles' coverage g3 and thickness g4 and their voltage g5 act on the cell only
     through its voltage U = g5 + u2 u5 / (2620 g2); the liquidus temperature, read by the freezing rate
     and the ledge's heat flows, acts through none of them alone."""
@@ -120,7 +122,7 @@ def causes_through(part: str, model: CellModel, x: np.ndarray, u: np.ndarray) ->
         p = model.parts[cause]
         bumped = model.with_part(cause, p.renamed(f"1.01 ({p.formula})", lambda v, k, q, p=p: 1.01 * p(v, k, q)))
         with np.errstate(all="ignore"):
-            moved = bumped.quantities(x, u)[part] - before
-        if (moved > 0).all() or (moved < 0).all():
+            moved = (bumped.quantities(x, u)[part] - before)[np.isfinite(before)]
+        if np.isfinite(moved).all() and (moved != 0).all():
             causes.append(cause)
     return causes
