@@ -76,3 +76,43 @@ def test_the_plant_set_and_your_data_choose_the_shooting_route_by_shooting_cells
     assert search_settings(config, "pot12").shooting_cells == 3
     config["discovery"]["user_data"] = {"name": "pot12"}
     assert search_settings(config, "pot12").shooting_cells == 0
+
+
+@pytest.mark.parametrize(("removed", "applied"), [(0.39, False), (0.6, True)])
+def test_an_unexplained_rounds_best_correction_is_applied_where_it_removes_half_the_excess(
+    default_config, removed, applied
+):
+    """As on the filter route (``min_explained``, 0.5): a best fit that leaves the voltage beyond its
+    noise is applied where it removes at least half the uncorrected fit's excess, else left out, and
+    the verdict says so.  On paper_liquidus at seed 1 (plant) a best fit removing 39 % was applied, and
+    the corrected model's long-window error rose by 12.5 times the gap above the floor."""
+    from costa.discover.core.settings import DiscoverySettings
+    from costa.discover.sparse.estimator import ChannelTest
+    from costa.discover.sparse.observed import NOMINAL_STATE
+    from costa.discover.sparse.shooting.fit import ShootingFit
+    from costa.discover.sparse.shooting.screen import ScreenedForm
+
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=2, trajectories=2, held_out_trajectories=1)
+    train, _ = case_tables(config, "no_effect", "plant")
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "plant")
+    model = starting_model(config, "full")
+    h = next(h for h in candidate_hypotheses(model) if h.key == "term:bath_energy")
+    constant = next(f for f in h.features() if f.name == "1")
+    starts, samples = np.tile(NOMINAL_STATE, (2, 2, 1)), {"U_cell": obs.y.shape[1] * 2}
+
+    def shot(theta, cost, chi2):
+        return ShootingFit(np.array(theta), starts, cost, np.array([cost / 2] * 2), {"U_cell": chi2}, samples, 0, 1)
+
+    base = shot([], 1000.0, 3.0)  # 2 noise variances in excess
+    fit = shot([-100.0], 500.0, 3.0 - 2.0 * removed)
+    flagged = ChannelTest("U_cell", samples["U_cell"], 3.0, 30.0, 0.0, 0.0, 0.0, True)
+    form = ScreenedForm(h, (constant,), np.array([-100.0]), 500.0, 490.0, {"U_cell": 1.0})
+    screen = shooting_round.ShotScreen([flagged], base, [form], [form])
+    settings = DiscoverySettings(shooting_cells=2, bootstrap=50)
+    decided = shooting_round.decide_by_shooting(
+        model, screen, [shooting_round.ShotFit(fit, np.eye(1), [])], obs, settings
+    )
+    assert decided.verdict.startswith("unexplained: the best correction, term:bath_energy")
+    assert (decided.chosen is not None) == applied
+    assert decided.verdict.endswith("not applied") != applied

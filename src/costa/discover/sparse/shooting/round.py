@@ -15,7 +15,8 @@ Where the first state is searched (hand samples too sparse to place it at the fi
    channel at its noise, or removes nearly all of the excess ("form incomplete"), and no fit of
    other physics comes within :data:`.screen.MARGIN` of its BIC gain; a fit of other physics
    within it leaves the round undecided; one that leaves a channel beyond its noise unexplained.
-   The best correction is applied either way.
+   The best correction is applied either way where it removes at least ``min_explained`` of the
+   excess, as on the filter route.
 
 Every closed form has at most three terms, so no rival holds a larger budget: a name is not bought
 by terms.  A fit at noise on every channel leaves nothing for a further round on these cells, so the
@@ -193,13 +194,16 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     first = ranking.order[0]
     if not (first.fit.at_noise or ranking.incomplete):
         left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
+        applied = chosen.explained >= settings.min_explained
         verdict = (
             f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {left} times the noise variance "
             f"on {cells}, so what is missing may be an explanation that did not fit here or more than one effect; "
-            f"the correction {effect}"
+            f"the correction {effect}" + ("" if applied else f", less than {settings.min_explained:.0%}: not applied")
         )
         recommended = next_measured([chosen, *(c for c in order if c is not chosen)][:3])
-        return PartialRound(model, tests, order, chosen, [], True, None, verdict, measure_next=recommended)
+        return PartialRound(
+            model, tests, order, chosen if applied else None, [], True, None, verdict, measure_next=recommended
+        )
     if rivals:
         recommended = next_measured([chosen, *rivals])
         keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
