@@ -143,17 +143,9 @@ def run_discovery(
     if incomplete_states(train) or incomplete_states(held_out):
         evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
         result = run_partial_discovery(
-            train,
-            held_out,
-            start,
-            settings,
-            evaluation,
-            declared_noise or {},
-            source,
-            floor_rng,
-            first_round,
-            gap_restart_s(config, name),
-        )
+            train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng, first_round,
+            restart_s=gap_restart_s(config, name),
+        )  # fmt: skip
     else:
         result = run_full_state_discovery(
             train, held_out, start, settings, lambda steps: gap_settings(config, name, steps), source, floor_rng

@@ -178,9 +178,9 @@ def run_partial_discovery(
 
     ``evaluation`` gives the gap's windows; the state a rollout starts from is estimated
     from the first window's samples, and every ``restart_s`` [s] again from the samples then
-    (:func:`.gap.forecast_pieces`; None: one rollout over the whole record).  ``first_round``: the paths of the first round's screen
-    and fit records, where separate jobs made them (:func:`screen_first_round`,
-    :func:`fit_first_round`); the findings are the same.
+    (:func:`.gap.forecast_pieces`; None: one rollout over the whole record).  ``first_round``:
+    the paths of the first round's screen and fit records, where separate jobs made them
+    (:func:`screen_first_round`, :func:`fit_first_round`); the findings are the same.
     """
     obs = checked_observations(train, declared_noise, source, settings)
     held = observations(held_out, declared_noise, source)
