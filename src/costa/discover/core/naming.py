@@ -27,9 +27,14 @@ def _consequences(h: Hypothesis, reads: Mapping[str, frozenset[str]]) -> set[str
         sources = {h.target}
     else:
         return set()
+    return _computed_from(sources, reads)
+
+
+def _computed_from(sources: set[str], reads: Mapping[str, frozenset[str]], passing: str | None = None) -> set[str]:
+    """The parts computed from ``sources``, directly or through other parts, not through part ``passing``."""
     computed: set[str] = set()
     for name in PART_ORDER:  # the computation order: one pass follows every chain
-        if reads[name] & (sources | computed):
+        if name != passing and reads[name] & (sources | computed):
             computed.add(name)
     return computed
 
@@ -111,13 +116,8 @@ def causes_through(part: str, model: CellModel, x: np.ndarray, u: np.ndarray) ->
         before = model.quantities(x, u)[part]
     causes = []
     for cause in PART_ORDER[: PART_ORDER.index(part)]:
-        reached, frontier = {cause}, [cause]
-        while frontier:  # what the cause changes, not through ``part``
-            name = frontier.pop()
-            new = {p for p, r in reads.items() if name in r and p != part} - reached
-            reached |= new
-            frontier += new
-        if reached & sinks or not any(part in reads and name in reads[part] for name in reached):
+        reached = {cause} | _computed_from({cause}, reads, passing=part)
+        if reached & sinks or not reached & reads[part]:
             continue
         p = model.parts[cause]
         bumped = model.with_part(cause, p.renamed(f"1.01 ({p.formula})", lambda v, k, q, p=p: 1.01 * p(v, k, q)))
