@@ -1,5 +1,6 @@
 """The Kalman smoother against exact answers: on a linear Gaussian model it must equal conditioning
-the joint Gaussian of all states and measurements directly."""
+the joint Gaussian of all states and measurements directly.  The model is traced and compiled as
+the cell model is (:class:`costa.compiled.CompiledSystem`)."""
 
 from __future__ import annotations
 
@@ -7,27 +8,41 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
-from costa.discover.sparse.estimator import StateSpaceModel, innovation_tests, smooth
+from costa.compiled import CompiledSystem
+from costa.compiled.trace import Row
+from costa.discover.sparse.innovations import innovation_tests
+
+PROCESS_STD, NOISE_STD = np.array([0.1, 0.2, 0.05]), np.array([0.3, 0.2])
 
 
-def _linear_system(rng):
+def _matrices():
     a = np.array([[0.95, 0.1, 0.0], [0.0, 0.9, 0.05], [0.0, 0.0, 1.0]])  # the third state is a random walk
     b = np.array([[0.5], [0.0], [0.0]])
     h = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]])
-    model = StateSpaceModel(
-        transition=lambda z, u: z @ a.T + u @ b.T,
-        observe=lambda z, u: z @ h.T,
-        process_std=np.array([0.1, 0.2, 0.05]),
-        noise_std=np.array([0.3, 0.2]),
-        scale=np.ones(3),
-    )
-    return model, a, b, h
+    return a, b, h
 
 
-def _exact(model, a, b, h, y, u, mean0, cov0):
+def _times(matrix: np.ndarray, row: Row) -> list:
+    """matrix @ row, written as the sums a traced row is computed with."""
+    return [sum(m * row[j] for j, m in enumerate(line) if m) for line in matrix]
+
+
+def _linear_system(a, b, h) -> CompiledSystem:
+    """z' = A z + B u, y = H z, compiled."""
+
+    def step(program, z, u):
+        return Row([s + t for s, t in zip(_times(a, z), _times(b, u), strict=True)])
+
+    def sensors(program, z, u):
+        return Row(_times(h, z))
+
+    return CompiledSystem({"step": step, "sensors": sensors}, states=3, inputs=1, channels=2)
+
+
+def _exact(a, b, h, y, u, mean0, cov0):
     """Posterior means of all states and the log density of the measured values, by brute force."""
     steps, size = y.shape[0], a.shape[0]
-    q, r = np.diag(model.process_std**2), np.diag(model.noise_std**2)
+    q, r = np.diag(PROCESS_STD**2), np.diag(NOISE_STD**2)
     # z_k = A^k z0 + sum_j A^(k-1-j) (B u_j + w_j): states as a linear map of (z0, w_0..w_{K-2})
     mean = np.zeros((steps, size))
     maps = np.zeros((steps, size, size * steps))
@@ -55,7 +70,7 @@ def _exact(model, a, b, h, y, u, mean0, cov0):
 
 def test_smoother_equals_conditioning_the_joint_gaussian_with_missing_samples():
     rng = np.random.default_rng(7)
-    model, a, b, h = _linear_system(rng)
+    a, b, h = _matrices()
     n, steps = 3, 12
     u = rng.normal(size=(n, steps, 1))
     y = rng.normal(size=(n, steps, 2))
@@ -64,32 +79,32 @@ def test_smoother_equals_conditioning_the_joint_gaussian_with_missing_samples():
     y[2, :, 1] = np.nan  # a channel never measured in one trajectory
     mean0 = rng.normal(size=(n, 3))
     cov0 = np.diag([1.0, 2.0, 0.5])
-    result = smooth(model, y, u, mean0, cov0)
+    result = _linear_system(a, b, h).smooth(y, u, mean0, cov0, PROCESS_STD, NOISE_STD)
     for i in range(n):
-        mean, std, log_density = _exact(model, a, b, h, y[i], u[i], mean0[i], cov0)
-        np.testing.assert_allclose(result.mean[i], mean, rtol=1e-6, atol=1e-6)
-        np.testing.assert_allclose(result.std[i], std, rtol=1e-5, atol=1e-6)
-        assert result.log_likelihood[i] == pytest.approx(log_density, rel=1e-8)
+        mean, std, log_density = _exact(a, b, h, y[i], u[i], mean0[i], cov0)
+        np.testing.assert_allclose(result.mean[i], mean, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(result.std[i], std, rtol=1e-10, atol=1e-12)
+        assert result.log_likelihood[i] == pytest.approx(log_density, rel=1e-12)
     assert np.isnan(result.innovation[2, :, 1]).all() and np.isfinite(result.innovation[0, 1:3]).all()
 
 
 def test_innovations_of_the_true_model_pass_and_a_wrong_model_is_flagged():
     rng = np.random.default_rng(3)
-    model, a, b, h = _linear_system(rng)
+    a, b, h = _matrices()
     n, steps = 20, 300
     u = rng.normal(size=(n, steps, 1))
     z = np.zeros((n, steps, 3))
     for k in range(1, steps):
-        z[:, k] = z[:, k - 1] @ a.T + u[:, k - 1] @ b.T + rng.normal(size=(n, 3)) * model.process_std
-    y = z @ h.T + rng.normal(size=(n, steps, 2)) * model.noise_std
+        z[:, k] = z[:, k - 1] @ a.T + u[:, k - 1] @ b.T + rng.normal(size=(n, 3)) * PROCESS_STD
+    y = z @ h.T + rng.normal(size=(n, steps, 2)) * NOISE_STD
     y[:, 1::2, 1] = np.nan  # the second channel every other step
-    prior = (np.zeros((n, 3)), np.eye(3))
-    right = innovation_tests(smooth(model, y, u, *prior).innovation, ["first", "second"])
+    prior = (np.zeros((n, 3)), np.eye(3), PROCESS_STD, NOISE_STD)
+    right = innovation_tests(_linear_system(a, b, h).smooth(y, u, *prior).innovation, ["first", "second"])
     assert not any(t.flagged for t in right)
     assert all(abs(t.chi2_per_dof - 1) < 0.1 for t in right)
     # the model misses the input's effect: the first channel's innovations follow u
-    wrong = StateSpaceModel(lambda z, u: z @ a.T, model.observe, model.process_std, model.noise_std, model.scale)
-    tests = {t.channel: t for t in innovation_tests(smooth(wrong, y, u, *prior).innovation, ["first", "second"])}
+    wrong = _linear_system(a, np.zeros_like(b), h).smooth(y, u, *prior)
+    tests = {t.channel: t for t in innovation_tests(wrong.innovation, ["first", "second"])}
     assert tests["first"].flagged and tests["first"].chi2_per_dof > 1.5
 
 
@@ -98,22 +113,24 @@ def test_a_trajectory_whose_covariance_turns_singular_does_not_stop_the_others()
     transition's Jacobian is zero) leaves that trajectory a singular predicted covariance: the
     smoother returns it as NaN, and the other trajectories exactly as when run alone."""
     rng = np.random.default_rng(11)
-    _, a, b, h = _linear_system(rng)
+    a, b, h = _matrices()
 
-    def transition(z, u):
-        kept = (u[:, :1] < 100).astype(float)  # an input beyond 100 resets the third state to zero
-        return np.concatenate([z[:, :2] @ a[:2, :2].T + u @ b[:2].T, kept * z[:, 2:]], axis=1)
+    def step(program, z, u):  # the second input, 0, resets the third state to zero; 1 keeps it
+        moved = [s + t for s, t in zip(_times(a[:2, :2], z), _times(b[:2], u), strict=True)]
+        return Row([*moved, u[1] * z[2]])
 
-    model = StateSpaceModel(
-        transition, lambda z, u: z @ h.T, np.array([0.1, 0.2, 0.0]), np.array([0.3, 0.2]), np.ones(3)
-    )
+    def sensors(program, z, u):
+        return Row(_times(h, z))
+
+    system = CompiledSystem({"step": step, "sensors": sensors}, states=3, inputs=2, channels=2)
     n, steps = 3, 12
-    u = rng.normal(size=(n, steps, 1))
-    u[1, 5] = 1000.0
+    u = np.concatenate([rng.normal(size=(n, steps, 1)), np.ones((n, steps, 1))], axis=-1)
+    u[1, 5, 1] = 0.0
     y = rng.normal(size=(n, steps, 2))
     mean0, cov0 = rng.normal(size=(n, 3)), np.eye(3)
-    result = smooth(model, y, u, mean0, cov0)
+    noise = (np.array([0.1, 0.2, 0.0]), NOISE_STD)
+    result = system.smooth(y, u, mean0, cov0, *noise)
     assert np.isnan(result.mean[1, :6]).all()
-    alone = smooth(model, y[::2], u[::2], mean0[::2], cov0)
+    alone = system.smooth(y[::2], u[::2], mean0[::2], cov0, *noise)
     np.testing.assert_allclose(result.mean[::2], alone.mean, rtol=1e-12)
     np.testing.assert_allclose(result.log_likelihood[::2], alone.log_likelihood, rtol=1e-12)

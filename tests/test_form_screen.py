@@ -7,8 +7,8 @@ from conftest import random_operating_points
 
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.naming import balance_moved, causes_through
-from costa.discover.sparse.shooting.fit import ShootingFit
-from costa.discover.sparse.shooting.screen import FittedForm, _forward, ranked_fits, states_eliminated
+from costa.discover.sparse.shooting.fit import ShootingFit, states_eliminated
+from costa.discover.sparse.shooting.screen import FittedForm, _forward, ranked_fits
 
 
 def test_the_reduced_gradient_gives_what_the_coefficients_add_to_the_whole_least_squares_fit():

@@ -17,9 +17,9 @@ from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.settings import DiscoverySettings
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.pipeline import run_discovery, starting_model
-from costa.discover.sparse.estimator import innovation_tests
 from costa.discover.sparse.filter.likelihood import hypothesis_scales
 from costa.discover.sparse.filter.search import discover_round
+from costa.discover.sparse.innovations import innovation_tests
 from costa.discover.sparse.observations import Observations, channel_noise
 from costa.discover.sparse.observed import estimate_states
 from costa.discover.sparse.pipeline import PartialResult, observations
@@ -449,8 +449,8 @@ def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_los
 def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves():
     """BIC differences are evidence only under a likelihood that fits: the window grows by the best
     correction's mean square innovation over all samples (as QAIC divides by c-hat), never shrinks."""
-    from costa.discover.sparse.estimator import ChannelTest
     from costa.discover.sparse.filter.search import _dispersion
+    from costa.discover.sparse.innovations import ChannelTest
 
     def best(*tests):
         return [SimpleNamespace(tests_after=[ChannelTest(c, n, chi2, 0, 0, 0, 0, False) for c, n, chi2 in tests])]
@@ -499,8 +499,8 @@ def test_a_correction_that_leaves_a_small_form_error_is_named_with_its_form_inco
     less, not where what it leaves is large (96 % of a huge excess removed, 48 times the noise
     variance left: paper_liquidus on a pot line's record named the anode-cathode distance so),
     and never where a rival is as good."""
-    from costa.discover.sparse.estimator import ChannelTest
     from costa.discover.sparse.filter.search import _small_form_error
+    from costa.discover.sparse.innovations import ChannelTest
     from costa.discover.sparse.rounds import PartialRound
 
     settings = DiscoverySettings()
@@ -621,7 +621,7 @@ def test_a_trajectory_whose_filter_was_lost_leaves_the_closed_form_to_the_others
     which one filter was lost an hour in (its states overflow, then turn NaN): the regression
     finds the same terms and coefficients from the three it holds, where the lost cell used to make
     every coefficient NaN."""
-    from costa.discover.sparse.estimator import Smoothed
+    from costa.compiled import Smoothed
     from costa.discover.sparse.filter.search import _closed_form
 
     model = true_model()
@@ -683,7 +683,7 @@ def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monke
     """Smoothed along current_efficiency, alumina_feeder's plant record holds 6 of its 12 cells: no
     closed form rests on the other half (the refinement gives up at the same share), so the
     candidate goes on with no terms, and none of the fit's stages runs; 7 of 12 is fitted."""
-    from costa.discover.sparse.estimator import Smoothed
+    from costa.compiled import Smoothed
     from costa.discover.sparse.filter import search
     from costa.discover.sparse.filter.likelihood import mostly_lost
     from costa.discover.sparse.rounds import HypothesisScore

@@ -9,7 +9,7 @@ import pytest
 
 from costa.discover.cases.shipped import add_noise
 from costa.discover.cases.unshipped import find_case
-from costa.discover.sparse.estimator import innovation_tests
+from costa.discover.sparse.innovations import innovation_tests
 from costa.discover.sparse.observed import estimate_states
 from costa.observe import observe
 from costa.physics import ablated_model, true_model

@@ -87,7 +87,7 @@ def test_an_unexplained_rounds_best_correction_is_applied_where_it_removes_half_
     the verdict says so.  On paper_liquidus at seed 1 (plant) a best fit removing 39 % was applied, and
     the corrected model's long-window error rose by 12.5 times the gap above the floor."""
     from costa.discover.core.settings import DiscoverySettings
-    from costa.discover.sparse.estimator import ChannelTest
+    from costa.discover.sparse.innovations import ChannelTest
     from costa.discover.sparse.observed import NOMINAL_STATE
     from costa.discover.sparse.shooting.fit import ShootingFit
     from costa.discover.sparse.shooting.screen import ScreenedForm

@@ -38,4 +38,4 @@ def observe(model: CellModel, x: np.ndarray, u: np.ndarray, channels: Sequence[s
     if {"U_cell", "U_pot"} & set(channels):
         derived["U_cell"] = model.quantities(x, u)[SENSED_PART]
         derived["U_pot"] = derived["U_cell"] + model.params.E0 + model.params.R_ext * v.u2
-    return np.stack([x[..., STATES.index(c)] if c in STATES else derived[c] for c in channels], axis=-1)
+    return v.xp.stack([x[..., STATES.index(c)] if c in STATES else derived[c] for c in channels], axis=-1)

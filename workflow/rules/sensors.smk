@@ -39,7 +39,7 @@ rule sensors_screen:
         sensors="|".join(config["discovery"]["sensor_sets"]),
     conda:
         ENV
-    threads: 1
+    threads: 2  # the compiled kernels share the rows of a batch among them; nothing else runs beside a case's screen
     resources:
         mem_mb=6000,
     params:
@@ -105,7 +105,7 @@ rule discover_with_sensors:
         sensors="|".join(config["discovery"]["sensor_sets"]),
     conda:
         ENV
-    threads: 1
+    threads: 2  # as the screen: the last job of a case
     resources:
         mem_mb=6000,
     params:

@@ -9,9 +9,8 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from ...forecast import rollout_physics
+from ...compiled import CompiledModel
 from ...metrics import EvaluationSettings
-from ...observe import observe
 from ...physics import CellModel
 from .observations import Observations
 from .observed import estimate_states
@@ -40,10 +39,8 @@ def _rollout_from_estimate(model: CellModel, obs: Observations, start_steps: int
     places its start, and each model starts where it would place the cell itself)."""
     early = obs.steps(0, start_steps).with_start(model)
     estimated = estimate_states(model, early.y, early.u, early.channels, early.noise, early.dt, start=early.start)
-    first = estimated.mean[:, :1]
-    start = np.concatenate([first, np.zeros((obs.y.shape[0], obs.y.shape[1] - 1, 8))], axis=1)
-    with np.errstate(all="ignore"):
-        return observe(model, rollout_physics(model, start, obs.u, obs.dt), obs.u, obs.channels)
+    channels, _ = CompiledModel(model, obs.dt, obs.channels).march(estimated.mean[:, 0], obs.u)
+    return channels
 
 
 def forecast_pieces(steps: int, start_steps: int, restart_steps: int | None) -> list[tuple[int, int, int]]:

@@ -3,7 +3,8 @@
 The states x1..x8 advance by one RK4 step of the model per sample (the inputs held,
 as the data arise); the measured channels (:mod:`costa.sensors`) are read from the
 states, and the cell voltage from the model's own parts, so a model whose voltage
-is wrong shows it in the ``U_cell`` channel.  Unmeasured states start from a wide
+is wrong shows it in the ``U_cell`` channel.  Both are compiled, with an extended
+Kalman filter and smoother around them (:class:`...compiled.CompiledModel`).  Unmeasured states start from a wide
 prior around a nominal operating point; measured ones from their first sample.
 
 Where the bath composition is not sampled at the first step (a pot line's voltage and
@@ -20,18 +21,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ...integrate import rk4_step
-from ...observe import observe
+from ...compiled import CompiledModel, Smoothed
 from ...physics import CellModel
 from ...variables import STATES
-from .estimator import Smoothed, StateSpaceModel, smooth
 
 __all__ = [
     "NOMINAL_STATE",
     "PRIOR_STD",
     "SETTLE_S",
     "START_GRID",
-    "cell_state_space",
     "estimate_states",
     "prior",
     "searched_start",
@@ -57,24 +55,6 @@ START_SEARCH_S = 8 * 3600.0
 #: noise (up to 3.4, 1.75 and 13 times its variance) in the first 16 h of three cases; after it, they
 #: pass on one of those and exceed it by 10-15 % on the other two
 SETTLE_S = 2 * START_SEARCH_S
-
-
-def cell_state_space(
-    model: CellModel,
-    channels: Sequence[str],
-    noise_std: np.ndarray,
-    dt: float,
-    process_std: np.ndarray = PROCESS_STD,
-) -> StateSpaceModel:
-    """``model`` stepped by RK4 over ``dt`` [s], observed through ``channels`` with noise ``noise_std`` (C,)."""
-    channels = tuple(channels)
-    return StateSpaceModel(
-        transition=lambda z, u: rk4_step(model.rhs, z, u, dt),
-        observe=lambda z, u: observe(model, z, u, channels),
-        process_std=np.asarray(process_std, dtype=float),
-        noise_std=np.asarray(noise_std, dtype=float),
-        scale=NOMINAL_STATE,
-    )
 
 
 def prior(y: np.ndarray, channels: Sequence[str], start: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -129,9 +109,10 @@ def searched_start(
         starts[g, :, 1], starts[g, :, 2], starts[g, :, 3] = c2 * bath, c3 * bath, (1 - c2 - c3) * bath
     steps = min(y.shape[1], max(1, round(START_SEARCH_S / dt)))
     rows = len(grid) * len(mean)
-    space = cell_state_space(model, channels, noise_std, dt)
     tiled = (np.tile(a[:, :steps], (len(grid), 1, 1)) for a in (y, u))
-    result = smooth(space, *tiled, starts.reshape(rows, 8), cov, backward=False)
+    result = CompiledModel(model, dt, channels).smooth(
+        *tiled, starts.reshape(rows, 8), cov, PROCESS_STD, noise_std, backward=False
+    )
     likelihood = np.nan_to_num(result.log_likelihood.reshape(len(grid), -1), nan=-np.inf)
     return starts[likelihood.argmax(0), np.arange(len(mean))]
 
@@ -149,4 +130,5 @@ def estimate_states(
     """Smoothed states (n, K, 8) of ``model`` given measured channels y (n, K, C) (NaN: not sampled);
     ``backward`` False: the filter only (innovations and likelihood); ``start`` (n, 8): the prior
     mean of the first state (:func:`searched_start`), else :func:`prior`'s."""
-    return smooth(cell_state_space(model, channels, noise_std, dt), y, u, *prior(y, channels, start), backward=backward)
+    kernel = CompiledModel(model, dt, channels)
+    return kernel.smooth(y, u, *prior(y, channels, start), PROCESS_STD, noise_std, backward=backward)

@@ -14,13 +14,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...compiled import Smoothed
 from ...physics import CellModel
 from ..core.fitted_terms import FittedTerms
 from ..core.hypotheses import Hypothesis
 from ..core.library import Feature
 from ..core.naming import removal
 from ..core.settings import DiscoverySettings
-from .estimator import ChannelTest, Smoothed, innovation_tests
+from .innovations import ChannelTest, innovation_tests
 from .measure_next import Recommendation
 from .observations import Observations
 from .observed import estimate_states

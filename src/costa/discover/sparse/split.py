@@ -21,8 +21,8 @@ from typing import Any
 
 from ...physics import CellModel
 from ..core.hypotheses import candidate_hypotheses
-from .estimator import ChannelTest
 from .filter.search import Screen
+from .innovations import ChannelTest
 from .observations import Observations
 from .rounds import HypothesisScore, PartialCandidate
 from .shooting.fit import ShootingFit

@@ -23,14 +23,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ....integrate import rk4_step
-from ....observe import observe
+from ....compiled import CompiledModel, Parameters, Smoothed
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis
 from ...core.library import Feature
-from ..estimator import Smoothed, StateSpaceModel, smooth
 from ..observations import Observations
-from ..observed import NOMINAL_STATE, PROCESS_STD
+from ..observed import PROCESS_STD
 from ..rounds import HypothesisScore
 
 __all__ = [
@@ -46,54 +44,24 @@ __all__ = [
 DELTA_PRIOR = 30.0
 
 
-def _composed(model: CellModel, hypotheses: Sequence[Hypothesis], which: np.ndarray, delta: np.ndarray) -> CellModel:
-    """One model for a batch: row b is shifted by delta[b] along hypothesis which[b] (-1: none)."""
-    for j, h in enumerate(hypotheses):
-        rows = which == j
-        if rows.any():
-            model = h.shifted(model, np.where(rows, delta, 0.0))
-    return model
-
-
-def _space(
-    model: CellModel, hypotheses: Sequence[Hypothesis], scales: np.ndarray, obs: Observations, walk: np.ndarray
-) -> StateSpaceModel:
-    """z = (x1..x8, scaled delta) for a batch of rows; the input carries u1..u5 and the row's
-    hypothesis index; ``walk`` (rows,) is each row's random-walk std of delta per step.  One model
-    is composed for the whole batch: hypothesis j reads the deltas of the rows it owns (0 elsewhere)."""
-    current: dict[int, np.ndarray] = {}
-    composed = model
-    for j, h in enumerate(hypotheses):
-        composed = h.driven(composed, lambda j=j: current[j])
-
-    def split(z, u):
-        which = u[:, 5].astype(int)
-        rows = np.flatnonzero(which >= 0)
-        deltas = np.zeros((len(scales), len(z)))  # row j: hypothesis j's delta, 0 on rows it does not own
-        deltas[which[rows], rows] = z[rows, 8] * scales[which[rows]]
-        current.update(enumerate(deltas))
-        return z[:, :8], u[:, :5]
-
-    def transition(z, u):
-        x, inputs = split(z, u)
-        return np.concatenate([rk4_step(composed.rhs, x, inputs, obs.dt), z[:, 8:]], axis=1)
-
-    def measured(z, u):
-        return observe(composed, *split(z, u), obs.channels)
-
-    process = np.column_stack([np.tile(PROCESS_STD, (len(walk), 1)), walk])
-    return StateSpaceModel(transition, measured, process, obs.noise, np.append(NOMINAL_STATE, 1.0))
-
-
-def _responses(shifted: CellModel, x: np.ndarray, u: np.ndarray, obs: Observations, copies: int) -> np.ndarray:
-    """The measured channels (copies, rows, C) after simulating ``copies`` stacked copies of the
-    states x (rows, 8) under the inputs u (rows, steps, 5), one row block per hypothesis."""
-    x = np.tile(x, (copies, 1))
-    with np.errstate(all="ignore"):
-        for k in range(u.shape[1]):
-            inputs = np.tile(u[:, k], (copies, 1))
-            x = rk4_step(shifted.rhs, x, inputs, obs.dt)
-        return observe(shifted, x, inputs, obs.channels).reshape(copies, len(u), -1)
+def _responses(
+    model: CellModel, hypotheses: Sequence[Hypothesis], which: np.ndarray, delta: float,
+    x: np.ndarray, u: np.ndarray, obs: Observations,
+) -> np.ndarray:  # fmt: skip
+    """The measured channels (copies, rows, C) after simulating stacked copies of the states x (rows, 8)
+    under the inputs u (rows, steps, 5), one row block per entry of ``which`` (rows of copy c shifted by
+    ``delta`` along hypothesis which[c]; -1: none)."""
+    present = [j for j in range(len(hypotheses)) if (which == j).any()]
+    deltas = [Parameters() for _ in present]
+    shifted = model
+    for j, parameter in zip(present, deltas, strict=True):
+        shifted = hypotheses[j].driven(shifted, parameter)
+    kernel = CompiledModel(shifted, obs.dt, obs.channels, deltas)
+    values = [np.where(which == j, delta, 0.0) for j in present]
+    copies = len(which) // len(x)
+    inputs = np.tile(u, (copies, 1, 1))
+    end = kernel.march(np.tile(x, (copies, 1)), inputs, *values, record=None)
+    return kernel.sense(end, inputs[:, -1], *values).reshape(copies, len(x), -1)
 
 
 def hypothesis_scales(
@@ -112,8 +80,7 @@ def hypothesis_scales(
     the hypothesis is invisible to these sensors."""
 
     def strongest(which_rows, x, u):
-        shifted = _composed(model, hypotheses, which_rows, np.full(which_rows.shape, probe))
-        y = _responses(shifted, x, u, obs, len(which_rows) // len(x))
+        y = _responses(model, hypotheses, which_rows, probe, x, u, obs)
         response = np.nan_to_num(np.abs(y[1:] - y[0]) / probe / obs.noise)  # noise stds per unit delta
         return np.sqrt(np.mean(response**2, axis=1)).max(-1)
 
@@ -150,16 +117,13 @@ def likelihood_gains(rows: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np
 
 
 def _rows(obs: Observations, hypotheses: Sequence[Hypothesis], walks: Sequence[float], scales: np.ndarray, null: bool):
-    """Every (hypothesis, walk step, trajectory) row of a batch, with its inputs and prior; ``null``:
-    rows of the model without any hypothesis first (index -1)."""
+    """Every (hypothesis, walk step, trajectory) row of a batch, with its measurements, inputs and prior;
+    ``null``: rows of the model without any hypothesis first (index -1)."""
     n = obs.y.shape[0]
     pairs = [(-1, 0.0)] * null + [(j, w) for j in range(len(hypotheses)) for w in walks if scales[j] > 0]
     which = np.repeat([p[0] for p in pairs], n)
     reps = len(pairs)
-    y = np.tile(obs.y, (reps, 1, 1))
-    u = np.concatenate(
-        [np.tile(obs.u, (reps, 1, 1)), np.broadcast_to(which[:, None, None], (n * reps, obs.u.shape[1], 1))], axis=-1
-    )
+    y, u = np.tile(obs.y, (reps, 1, 1)), np.tile(obs.u, (reps, 1, 1))
     mean, cov = obs.prior()
     mean = np.concatenate([np.tile(mean, (reps, 1)), np.zeros((n * reps, 1))], axis=1)
     cov = np.tile(np.diag(np.append(np.diag(cov), DELTA_PRIOR**2)), (n * reps, 1, 1))
@@ -168,12 +132,25 @@ def _rows(obs: Observations, hypotheses: Sequence[Hypothesis], walks: Sequence[f
 
 
 def _filter(model, hypotheses, scales, obs: Observations, window: int, walks, backward: bool):
-    """The batch of :func:`_rows` through the smoother (with null rows when only filtering);
-    returns the rows' (hypothesis, walk) pairs too."""
+    """The batch of :func:`_rows` through the smoother (with null rows when only filtering); returns
+    the rows' (hypothesis, walk) pairs too.  z = (x1..x8, scaled delta); one model is composed for
+    the whole batch, hypothesis j reading a delta of its own, which is the scaled delta of the rows it
+    owns (and 0 on the others: the mixing of row b holds scale j at hypothesis j = which[b] alone);
+    each row's delta is a random walk of its own step."""
     pairs, y, u, mean, cov = _rows(obs, hypotheses, walks, scales, null=not backward)
-    walk = np.repeat([w for _, w in pairs], obs.y.shape[0]) / np.sqrt(window)
-    space = _space(model, hypotheses, scales, obs, walk)
-    return pairs, smooth(space, y, u, mean, cov, backward=backward)
+    n = obs.y.shape[0]
+    walk = np.repeat([w for _, w in pairs], n) / np.sqrt(window)
+    which = np.repeat([j for j, _ in pairs], n)
+    deltas = [Parameters() for _ in hypotheses]
+    composed = model
+    for h, delta in zip(hypotheses, deltas, strict=True):
+        composed = h.driven(composed, delta)
+    kernel = CompiledModel(composed, obs.dt, obs.channels, deltas, augmented=1)
+    mixing = np.zeros((len(which), len(hypotheses), 1))
+    owned = np.flatnonzero(which >= 0)
+    mixing[owned, which[owned], 0] = scales[which[owned]]
+    process = np.column_stack([np.tile(PROCESS_STD, (len(walk), 1)), walk])
+    return pairs, kernel.smooth(y, u, mean, cov, process, obs.noise, mixing, backward=backward)
 
 
 def score_hypotheses(
@@ -248,30 +225,17 @@ def refine_coefficients(
     proper Gaussian (too nonlinear to trust) or half the trajectories or more are lost.
     """
     p = len(features)
-    current: dict[str, np.ndarray] = {}
-    corrected = hypothesis.parametrised(model, features, lambda: current["theta"])
-
-    def split(z):
-        current["theta"] = z[:, 8:]
-        return z[:, :8]
-
-    def transition(z, u):
-        return np.concatenate([rk4_step(corrected.rhs, split(z), u, obs.dt), z[:, 8:]], axis=1)
-
-    def measured(z, u):
-        return observe(corrected, split(z), u, obs.channels)
-
+    source = Parameters(p)
+    kernel = CompiledModel(hypothesis.parametrised(model, features, source), obs.dt, obs.channels, [source])
     n = obs.y.shape[0]
     x0, cov0 = obs.prior()
-    space = StateSpaceModel(
-        transition, measured, np.append(PROCESS_STD, np.zeros(p)), obs.noise, np.append(NOMINAL_STATE, width)
-    )
+    process = np.append(PROCESS_STD, np.zeros(p))
     theta = np.asarray(coefficients, dtype=float)
     for _ in range(passes):
         mean0 = np.column_stack([x0, np.tile(theta, (n, 1))])
         cov = np.zeros((8 + p, 8 + p))
         cov[:8, :8], cov[8:, 8:] = cov0, np.diag(width**2)
-        result = smooth(space, obs.y, obs.u, mean0, cov, backward=False)
+        result = kernel.smooth(obs.y, obs.u, mean0, cov, process, obs.noise, backward=False)
         # in units of the prior widths, where the prior's precision is the identity (the
         # coefficients' own scales span many decades: a check in raw units tests rounding)
         means, covs = result.mean[:, -1, 8:] / width, result.final_cov[:, 8:, 8:] / np.outer(width, width)

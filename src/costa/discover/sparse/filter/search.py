@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ....compiled import Smoothed
 from ....physics import CellModel
 from ...core.fitted_terms import KEEP_LEVEL, weakest_term
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
@@ -57,7 +58,7 @@ from ...core.regression import (
     solve_subset,
 )
 from ...core.settings import DiscoverySettings
-from ..estimator import ChannelTest, Smoothed
+from ..innovations import ChannelTest
 from ..measure_next import Recommendation, measure_next
 from ..observations import Observations
 from ..rounds import BudgetComparison, HypothesisScore, PartialCandidate, PartialRound, channel_tests, fit_outcome

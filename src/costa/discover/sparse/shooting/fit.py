@@ -6,9 +6,10 @@ where they are sampled.  Continuity between segments is a soft residual, so a mo
 drifts far from the data in one segment does not carry the error into the next: the
 objective has no cliffs where a filter would lose a cell.  Coefficients and every
 segment's start are fitted by Levenberg-Marquardt; the sensitivities of every segment to
-its start and the coefficients are finite differences, integrated side by side as rows
-of one batch (cell x segment x direction), and the normal equations are solved by
-eliminating each cell's states (a Schur complement on the shared coefficients).
+its start and the coefficients are the compiled model's tangents, carried beside each
+segment's states (:meth:`...compiled.CompiledSystem.march_tangents`), and the normal
+equations are solved by eliminating each cell's states (a Schur complement on the shared
+coefficients).
 
 The starts are placed twice.  First from the data alone: the sampled states interpolated to
 each segment's first step, the Al2O3 fraction (which only the voltage shows, not
@@ -32,12 +33,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from itertools import islice
 
 import numpy as np
+from scipy.linalg import solve_banded
 
-from ....integrate import rk4_step
-from ....observe import observe
+from ....compiled import CompiledModel, Parameters
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis
 from ...core.library import Feature
@@ -51,6 +51,7 @@ __all__ = [
     "ShootingFit",
     "channel_excess",
     "damped_step",
+    "states_eliminated",
     "filtered_starts",
     "shooting_fit",
 ]
@@ -74,8 +75,8 @@ CONTINUITY_STAGES = (100.0, 10.0, 3.0, 1.0)
 LOOSE = 10.0
 #: how many sampling stds of its mean square a channel may lie above 1 and count as at its noise
 NOISE_BAND = 3.0
-#: finite-difference steps: a state's share of its prior std, a coefficient's absolute step
-STATE_STEP, COEFFICIENT_STEP = 1e-4, 1e-4
+#: a coefficient's absolute finite-difference step where the screen differences a hypothesis' terms
+COEFFICIENT_STEP = 1e-4
 
 
 @dataclass(frozen=True)
@@ -122,7 +123,9 @@ def channel_excess(chi2: dict[str, float]) -> float:
 class Segments:
     """The record as rows (cell-major, then segment) of ``steps`` samples each, and the model
     (corrected by ``hypothesis`` with ``features``, or as it is where None) integrated over them
-    with its sensitivities; ``step`` (P,): each coefficient's finite-difference step."""
+    with its sensitivities (:class:`...compiled.CompiledModel`; ``derivatives`` False: the
+    coefficients' alone, by finite differences); ``step`` (P,): each coefficient's
+    finite-difference step."""
 
     def __init__(
         self,
@@ -132,6 +135,7 @@ class Segments:
         obs: Observations,
         steps: int,
         step: np.ndarray | None = None,
+        derivatives: bool = True,
     ):
         n, samples, channels = obs.y.shape
         self.obs, self.steps, self.n = obs, steps, n
@@ -142,45 +146,46 @@ class Segments:
         self.sampled = np.isfinite(self.y)
         self.terms = len(features)
         self.step = np.full(self.terms, COEFFICIENT_STEP) if step is None else np.asarray(step, dtype=float)
-        self._theta = np.zeros((0, self.terms))
-        self.model = model if hypothesis is None else hypothesis.parametrised(model, features, lambda: self._theta)
+        theta = Parameters(self.terms)
+        self.model = model if hypothesis is None else hypothesis.parametrised(model, features, theta)
+        self.kernel = CompiledModel(self.model, obs.dt, obs.channels, [theta], derivatives=derivatives)
 
-    def integrate(self, starts: np.ndarray, theta: np.ndarray, directions: str = "all"):
-        """Channels (R, D, steps, C) and end states (R, D, 8) of every row from ``starts`` (R, 8)
-        under ``theta`` (P,): D = 1 + 8 + P finite-difference rows (``directions`` "all"), 1 + P
-        ("coefficients": the coefficients' rows alone) or 1 ("none")."""
+    def integrate(self, starts: np.ndarray, theta: np.ndarray, directions: str = "none"):
+        """Channels (R, steps, C) and end states (R, 8) of every row from ``starts`` (R, 8) under ``theta``
+        (P,), and their derivatives (R, D, steps, C) and (R, D, 8): ``directions`` "all" in the scaled
+        starts (in :data:`..observed.PRIOR_STD`) and theta, D = 8 + P, exact (the kernel's tangents);
+        "coefficients" in theta alone, D = P, by finite differences of :attr:`step`; "none": no
+        derivatives (None)."""
         rows = len(starts)
-        moved = {"all": 8 + self.terms, "coefficients": self.terms, "none": 0}[directions]
-        x = np.repeat(starts[:, None], 1 + moved, 1)
-        theta = np.repeat(np.broadcast_to(theta, (rows, self.terms))[:, None], 1 + moved, 1).copy()
+        theta = np.broadcast_to(np.asarray(theta, dtype=float), (rows, self.terms))
         if directions == "all":
-            x[:, 1:9] += np.diag(STATE_STEP * PRIOR_STD)
-        if directions != "none":
-            theta[:, 1 + moved - self.terms :] += np.diag(self.step)
-        x = x.reshape(-1, 8)
-        self._theta = theta.reshape(len(x), self.terms)
-        u = np.repeat(self.u, 1 + moved, 0)
-        out = np.empty((len(x), self.steps, self.y.shape[-1]))
-        states = self._march(x, u)
+            d = 8 + self.terms
+            dx, dp = np.zeros((rows, 8, d)), np.zeros((rows, self.terms, d))
+            dx[:, np.arange(8), np.arange(8)] = PRIOR_STD
+            dp[:, np.arange(self.terms), 8 + np.arange(self.terms)] = 1.0
+            out, dout, end, dend = self.kernel.march_tangents(starts, self.u, theta, dx, dp)
+            return out, end, dout.transpose(0, 3, 1, 2), dend.transpose(0, 2, 1)
+        if directions == "none":
+            out, end = self.kernel.march(starts, self.u, theta)
+            return out, end, None, None
+        copies = 1 + self.terms  # each row, then each coefficient moved by its step
+        moved = np.repeat(theta[:, None], copies, 1)
+        moved[:, 1:] += np.diag(self.step)
+        out, end = self.kernel.march(
+            np.repeat(starts, copies, 0), np.repeat(self.u, copies, 0), moved.reshape(-1, self.terms)
+        )
+        out, end = out.reshape(rows, copies, self.steps, -1), end.reshape(rows, copies, 8)
+        scale = 1 / self.step
         with np.errstate(all="ignore"):
-            for k, state in enumerate(islice(states, self.steps)):
-                out[:, k] = observe(self.model, state, u[:, k], self.obs.channels)
-        return out.reshape(rows, 1 + moved, self.steps, -1), next(states).reshape(rows, 1 + moved, 8)
+            dout = (out[:, 1:] - out[:, :1]) * scale[None, :, None, None]
+            dend = (end[:, 1:] - end[:, :1]) * scale[None, :, None]
+        return out[:, 0], end[:, 0], dout, dend
 
     def path(self, starts: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """The states (n, S x steps, 8) at every step of every segment, each from its start (R, 8),
         under ``theta`` (P,)."""
-        self._theta = np.repeat(np.asarray(theta, dtype=float)[None], len(starts), 0)
-        states = np.stack(list(islice(self._march(starts, self.u), self.steps)), 1)
+        states, _ = self.kernel.march(starts, self.u, np.asarray(theta, dtype=float), record="states")
         return states.reshape(self.n, self.count * self.steps, 8)
-
-    def _march(self, x: np.ndarray, u: np.ndarray):
-        """The states (B, 8) from ``x`` at each step of the inputs ``u`` (B, steps, 5), then after the last."""
-        for k in range(self.steps):
-            yield x
-            with np.errstate(all="ignore"):
-                x = rk4_step(self.model.rhs, x, u[:, k], self.obs.dt)
-        yield x
 
     def misfit(self, out: np.ndarray) -> np.ndarray:
         """Measurement residuals (R, steps, C) in noise stds; 0 where not sampled."""
@@ -226,8 +231,8 @@ def _data_starts(segments: Segments, theta: np.ndarray) -> np.ndarray:
     grid = grid.reshape(len(ALUMINA_GRID), n * count, 8)
     cost = np.full(grid.shape[:2], np.inf)
     for g, candidate in enumerate(grid):
-        out, _ = segments.integrate(candidate, theta, "none")
-        cost[g] = np.nan_to_num((segments.misfit(out[:, 0]) ** 2).sum((1, 2)), nan=np.inf)
+        out, *_ = segments.integrate(candidate, theta)
+        cost[g] = np.nan_to_num((segments.misfit(out) ** 2).sum((1, 2)), nan=np.inf)
     return grid[cost.argmin(0), np.arange(n * count)]
 
 
@@ -276,7 +281,7 @@ def shooting_fit(
 
 class Shooting:
     """Levenberg-Marquardt over the segment starts (scaled by :data:`PRIOR_STD`) and theta;
-    ``starts`` (R, 8), ``theta`` (P,), and at them ``out``, ``ends`` (the rows without a finite-difference step), ``res``
+    ``starts`` (R, 8), ``theta`` (P,), and at them ``out``, ``ends`` (the channels and end states), ``res``
     (the residuals) and ``cost``."""
 
     def __init__(self, segments: Segments, starts: np.ndarray, looseness: float = CONTINUITY_STAGES[-1]):
@@ -317,7 +322,7 @@ class Shooting:
         """The fit as it stands, after ``done`` more iterations."""
         seg = self.segments
         starts = self.starts.reshape(seg.n, seg.count, 8)
-        chi2, samples = self.channel_chi2(seg.misfit(self.out[:, 0]))
+        chi2, samples = self.channel_chi2(seg.misfit(self.out))
         lost = int((~self.active).sum())
         cells = self.cell_costs(self.res)
         return ShootingFit(self.theta, starts, self.cost, cells, chi2, samples, lost, self.iterations + done)
@@ -340,18 +345,18 @@ class Shooting:
     def residuals(self, out, ends, starts):
         """Measurement (R, steps, C), continuity (n, S-1, 8) and first-start prior (n, 8) residuals."""
         n, count = self.segments.n, self.segments.count
-        measured = self.segments.misfit(out[:, 0])
+        measured = self.segments.misfit(out)
         measured[~self.active] = 0.0
         linked = self.active.reshape(n, count)
         linked = linked[:, :-1] & linked[:, 1:]
-        continuity = (ends[:, 0].reshape(n, count, 8)[:, :-1] - starts.reshape(n, count, 8)[:, 1:]) / self.sigma
+        continuity = (ends.reshape(n, count, 8)[:, :-1] - starts.reshape(n, count, 8)[:, 1:]) / self.sigma
         continuity[~linked] = 0.0
         prior = (starts.reshape(n, count, 8)[:, 0] - self.prior_mean) / PRIOR_STD
         return measured, continuity, prior, linked
 
-    def evaluate(self, starts, theta, directions: str = "all"):
-        """The rows (:meth:`Segments.integrate` with ``directions``), the residuals and the cost at ``starts``, ``theta``."""
-        out, ends = self.segments.integrate(starts, theta, directions)
+    def evaluate(self, starts, theta):
+        """The channels and end states (:meth:`Segments.integrate`), the residuals and the cost at ``starts``, ``theta``."""
+        out, ends, _, _ = self.segments.integrate(starts, theta)
         res = self.residuals(out, ends, starts)
         cost = float(self.cell_costs(res).sum())
         return out, ends, res, cost if np.isfinite(cost) else np.inf
@@ -366,24 +371,22 @@ class Shooting:
 
     def leave_out_lost(self, starts, theta):
         """Leave out the segments whose integration is lost already from their first state."""
-        out, ends = self.segments.integrate(starts, theta, "none")
-        self.active = np.isfinite(self.segments.misfit(out[:, 0])).all((1, 2)) & np.isfinite(ends[:, 0]).all(1)
+        out, ends, _, _ = self.segments.integrate(starts, theta)
+        self.active = np.isfinite(self.segments.misfit(out)).all((1, 2)) & np.isfinite(ends).all(1)
 
     def run(self, theta, iterations, hold_theta) -> int:
         """Up to ``iterations`` steps from :attr:`starts` and ``theta``; the steps taken."""
         starts = self.starts
-        self.out, self.ends, self.res, self.cost = self.evaluate(starts, theta, "none")
+        self.out, self.ends, self.res, self.cost = self.evaluate(starts, theta)
         done = 0
         for done in range(1, iterations + 1):
-            out, ends = self.segments.integrate(starts, theta)  # the derivatives where the step starts
-            normal = self.normal_equations(*self.jacobians(out, ends), hold_theta)
+            *_, dout, dends = self.segments.integrate(starts, theta, "all")  # the derivatives where the step starts
+            normal = self.normal_equations(*self.jacobians(dout, dends), hold_theta)
             while True:
                 step_z, step_t = damped_step(*normal, self.damping)
                 trial_z = starts + (step_z.reshape(-1, 8) * PRIOR_STD)
                 trial_t = theta + step_t
-                out, ends, trial_res, cost = self.evaluate(
-                    trial_z, trial_t, "none"
-                )  # a step refused costs no derivatives
+                out, ends, trial_res, cost = self.evaluate(trial_z, trial_t)  # a step refused costs no derivatives
                 if cost < self.cost:
                     improved = (self.cost - cost) / self.cost
                     starts, theta, self.out, self.ends, self.res, self.cost = (
@@ -405,17 +408,17 @@ class Shooting:
         self.starts, self.theta = starts, theta
         return done
 
-    def jacobians(self, out, ends):
-        """The measured residuals' derivatives jm (R, 8 + P, steps, C) and the segment ends' over
-        the continuity std je (R, 8 + P, 8), in the scaled starts and in theta, from the finite-
-        difference rows ``out`` (R, 1 + 8 + P, steps, C) and ``ends`` (R, 1 + 8 + P, 8)."""
+    def jacobians(self, dout, dends):
+        """The measured residuals' derivatives jm (R, D, steps, C) and the segment ends' over the
+        continuity std je (R, D, 8), from the channels' and end states' derivatives ``dout`` (R, D,
+        steps, C) and ``dends`` (R, D, 8) (:meth:`Segments.integrate`); 0 where not sampled, left out
+        or not finite."""
         seg = self.segments
-        scale = np.concatenate([np.full(8, 1 / STATE_STEP), 1 / seg.step])
         with np.errstate(all="ignore"):
-            jm = (out[:, 1:] - out[:, :1]) / seg.obs.noise * scale[None, :, None, None]
-            je = (ends[:, 1:] - ends[:, :1]) * scale[None, :, None] / self.sigma[None, None, :]
-        jm = np.where(seg.sampled[:, None] & self.active[:, None, None, None], np.nan_to_num(jm), 0.0)
-        return jm, np.nan_to_num(je)
+            jm = dout / seg.obs.noise
+            je = dends / self.sigma[None, None, :]
+        kept = seg.sampled[:, None] & self.active[:, None, None, None] & np.isfinite(jm)
+        return np.where(kept, jm, 0.0), np.where(np.isfinite(je), je, 0.0)
 
     def normal_equations(self, jm, je, hold_theta):
         """Per cell: the states' block A (n, S8, S8), the states-theta block B (n, S8, P), its
@@ -424,8 +427,9 @@ class Shooting:
         seg = self.segments
         n, count, terms = seg.n, seg.count, jm.shape[1] - 8
         measured, continuity, prior, linked = self.res
-        block = np.einsum("rikc,rjkc->rij", jm, jm).reshape(n, count, 8 + terms, 8 + terms)
-        grad = np.einsum("rikc,rkc->ri", jm, measured).reshape(n, count, 8 + terms)
+        flat = jm.reshape(*jm.shape[:2], -1)
+        block = (flat @ np.swapaxes(flat, 1, 2)).reshape(n, count, 8 + terms, 8 + terms)
+        grad = (flat @ measured.reshape(len(flat), -1, 1)).reshape(n, count, 8 + terms)
         a = np.zeros((n, count, 8, count, 8))
         b = np.zeros((n, count, 8, terms))
         g = grad[..., :8].copy()
@@ -458,16 +462,42 @@ class Shooting:
         return a, b, g, c, h
 
 
+def states_eliminated(a, b, g, c, h):
+    """The normal equations [[A_i, B_i], [B_i', C]] (A (n, S8, S8), B (n, S8, P), C (P, P)) with
+    gradients g (n, S8), h (P,) reduced to the coefficients: the Schur complement
+    S = C - sum_i B_i' A_i^-1 B_i, the reduced gradient hr = h - sum_i B_i' A_i^-1 g_i, and A^-1 B,
+    A^-1 g.  The Gauss-Newton step in states and coefficients removes hr' S^-1 hr more of the cost
+    than the states' step alone.  A state nothing informs (a segment left out) gets a unit diagonal.
+    Each A_i is block tridiagonal (a segment's start is tied to the next one's): solved as a band."""
+    diagonal = np.einsum("nii->ni", a)
+    a = a + (diagonal == 0)[:, :, None] * np.eye(a.shape[1])
+    solved = _banded_solve(a, np.concatenate([b, g[..., None]], axis=-1))
+    a_inv_b, a_inv_g = solved[..., :-1], solved[..., -1]
+    return c - np.einsum("nip,niq->pq", b, a_inv_b), h - np.einsum("nip,ni->p", b, a_inv_g), a_inv_b, a_inv_g
+
+
+def _banded_solve(a: np.ndarray, rhs: np.ndarray, width: int = 15) -> np.ndarray:
+    """a^-1 rhs for a (n, N, N) whose entries vanish beyond ``width`` off the diagonal (the states'
+    normal matrix: 8 x 8 blocks on the diagonal and beside it) and rhs (n, N, m)."""
+    size = a.shape[1]
+    width = min(width, size - 1)
+    out = np.empty_like(rhs)
+    for i, matrix in enumerate(a):
+        band = np.zeros((2 * width + 1, size))
+        for k in range(-width, width + 1):
+            band[width - k, max(k, 0) : size + min(k, 0)] = np.diagonal(matrix, k)
+        out[i] = solve_banded((width, width), band, rhs[i])
+    return out
+
+
 def damped_step(a, b, g, c, h, damping):
     """The damped Gauss-Newton step (states (n, S8), theta (P,)): each cell's states eliminated."""
     # Marquardt's scaling; a parameter nothing informs (a tap's gain on a record without taps, a
     # segment left out) has a zero row and gradient: a unit diagonal keeps it where it is
     diagonal, shared = np.einsum("nii->ni", a), np.diag(c)
-    a = a + (damping * diagonal + (diagonal == 0))[:, :, None] * np.eye(a.shape[1])
+    a = a + (damping * diagonal)[:, :, None] * np.eye(a.shape[1])
     c = c + np.diag(damping * shared + (shared == 0))
-    a_inv_b = np.linalg.solve(a, b)
-    a_inv_g = np.linalg.solve(a, g[..., None])[..., 0]
-    schur = c - np.einsum("nip,niq->pq", b, a_inv_b)
-    step_t = np.linalg.solve(schur, -(h - np.einsum("nip,ni->p", b, a_inv_g)))
+    schur, reduced, a_inv_b, a_inv_g = states_eliminated(a, b, g, c, h)
+    step_t = np.linalg.solve(schur, -reduced)
     step_z = -(a_inv_g + np.einsum("nip,p->ni", a_inv_b, step_t))
     return step_z.reshape(-1), step_t

@@ -35,13 +35,13 @@ from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import constant_inputs
 from ...core.naming import removal
 from ...core.settings import DiscoverySettings
-from ..estimator import ChannelTest, innovation_tests
+from ..innovations import ChannelTest, innovation_tests
 from ..measure_next import measure_next
 from ..observations import Observations
 from ..observed import start_is_searched
 from ..rounds import HypothesisScore, PartialCandidate, PartialRound, channel_tests
-from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit
-from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms, states_eliminated
+from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit, states_eliminated
+from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms
 
 __all__ = [
     "ShotFit", "ShotScreen", "by_excess", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting",
@@ -134,9 +134,10 @@ def _assessed(model, hypothesis, features, few: Observations, fit: ShootingFit, 
     """The fit's covariance and channel tests, from its residuals and derivatives at the last stage."""
     segments = Segments(model, hypothesis, features, few, round(SEGMENT_S / few.dt))
     shot = Shooting.started(segments, fit.starts.reshape(-1, 8), fit.theta, CONTINUITY_STAGES[-1])
-    shot.out, shot.ends, shot.res, shot.cost = shot.evaluate(shot.starts, fit.theta)
-    schur, *_ = states_eliminated(*shot.normal_equations(*shot.jacobians(shot.out, shot.ends), hold_theta=False))
-    residual = np.where(segments.sampled & shot.active[:, None, None], segments.misfit(shot.out[:, 0]), np.nan)
+    shot.out, shot.ends, dout, dends = segments.integrate(shot.starts, fit.theta, "all")
+    shot.res = shot.residuals(shot.out, shot.ends, shot.starts)
+    schur, *_ = states_eliminated(*shot.normal_equations(*shot.jacobians(dout, dends), hold_theta=False))
+    residual = np.where(segments.sampled & shot.active[:, None, None], segments.misfit(shot.out), np.nan)
     residual = residual.reshape(segments.n, segments.count, segments.steps, -1)
     tested = residual[:, 1:] if segments.count > 1 else residual  # as the fit's own chi2: after each first segment
     tests = innovation_tests(tested.reshape(segments.n, -1, len(few.channels)), few.channels, settings.z_threshold)

@@ -1,8 +1,8 @@
 """Every hypothesis' closed forms scored at once, linearised at the uncorrected model's shooting fit.
 
-The uncorrected model's segment starts are fitted first (:mod:`.fit`, no hypothesis).
-Each hypothesis then adds its screen terms (:func:`screen_terms`), each a finite-difference
-row per segment integrated from those starts.  With the states' derivatives shared, the
+The uncorrected model's segment starts are fitted first (:mod:`.fit`, no hypothesis), with
+its channels' derivatives in those starts.  Each hypothesis then adds its screen terms
+(:func:`screen_terms`), each a finite-difference row per segment integrated from those starts.  With the states' derivatives shared, the
 Gauss-Newton step in the states and one hypothesis' coefficients together predicts how much
 of the cost its closed form removes: the states' step is eliminated (a Schur complement
 S, hr), and the reduction is hr' S^-1 hr, the score test of adding those terms.  The terms
@@ -27,7 +27,7 @@ from ...core.naming import balance_moved, causes_through, naming_order, same_phy
 from ...core.settings import DiscoverySettings
 from ..observations import Observations
 from ..observed import PRIOR_STD
-from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, channel_excess, shooting_fit
+from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, channel_excess, shooting_fit, states_eliminated
 
 __all__ = [
     "FittedForm",
@@ -36,7 +36,6 @@ __all__ = [
     "ranked_fits",
     "screen_forms",
     "screen_terms",
-    "states_eliminated",
 ]
 
 #: a coefficient's finite-difference step moves the state it moves most by this share of its
@@ -94,19 +93,6 @@ def _steps(model: CellModel, hypothesis: Hypothesis, features: Sequence[Feature]
     return np.divide(PROBE, hourly, out=np.ones(len(features)), where=hourly > 0)
 
 
-def states_eliminated(a, b, g, c, h):
-    """The normal equations [[A_i, B_i], [B_i', C]] (A (n, S8, S8), B (n, S8, P), C (P, P)) with
-    gradients g (n, S8), h (P,) reduced to the coefficients: the Schur complement
-    S = C - sum_i B_i' A_i^-1 B_i, the reduced gradient hr = h - sum_i B_i' A_i^-1 g_i, and A^-1 B,
-    A^-1 g.  The Gauss-Newton step in states and coefficients removes hr' S^-1 hr more of the cost
-    than the states' step alone.  A state nothing informs (a segment left out) gets a unit diagonal."""
-    diagonal = np.einsum("nii->ni", a)
-    a = a + (diagonal == 0)[:, :, None] * np.eye(a.shape[1])
-    a_inv_b = np.linalg.solve(a, b)
-    a_inv_g = np.linalg.solve(a, g[..., None])[..., 0]
-    return c - np.einsum("nip,niq->pq", b, a_inv_b), h - np.einsum("nip,ni->p", b, a_inv_g), a_inv_b, a_inv_g
-
-
 def _forward(schur: np.ndarray, reduced: np.ndarray, penalty: float, max_terms: int) -> tuple[list[int], float]:
     """Terms chosen one at a time, each the one that adds most to hr' S^-1 hr, while it adds more
     than ``penalty``: (chosen, the reduction)."""
@@ -152,6 +138,7 @@ def screen_forms(
     fitted = shooting_fit(model, None, [], obs, segment_s, iterations, stages=loose)
     base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts, None, loose[0])
     base.out, base.ends, base.res, base.cost = base.evaluate(base.starts, np.zeros(0))
+    *_, states_out, states_ends = base.segments.integrate(base.starts, np.zeros(0), "all")
     seg = base.segments
     rows = base.starts
     u0 = seg.u[:, 0]
@@ -161,13 +148,11 @@ def screen_forms(
     for h in hypotheses:
         features = screen_terms(h)
         step = _steps(model, h, features, rows, u0)
-        own = Segments(model, h, features, obs, seg.steps, step)
-        out, ends = own.integrate(rows, np.zeros(len(features)), "coefficients")
+        own = Segments(model, h, features, obs, seg.steps, step, derivatives=False)
+        *_, dout, dends = own.integrate(rows, np.zeros(len(features)), "coefficients")
         shot = Shooting(own, rows)
         shot.active, shot.sigma, shot.res = base.active, base.sigma, base.res
-        jm, je = shot.jacobians(
-            np.concatenate([base.out[:, :9], out[:, 1:]], 1), np.concatenate([base.ends[:, :9], ends[:, 1:]], 1)
-        )
+        jm, je = shot.jacobians(np.concatenate([states_out, dout], 1), np.concatenate([states_ends, dends], 1))
         a, b, g, c, hv = shot.normal_equations(jm, je, hold_theta=False)
         # in units of each term's step
         schur, reduced, a_inv_b, a_inv_g = states_eliminated(a, b * step, g, c * np.outer(step, step), hv * step)
