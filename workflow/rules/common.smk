@@ -86,7 +86,8 @@ def package_files(*modules):
     files = []
     for module in modules:
         path = PACKAGE / module
-        files += sorted(map(str, path.rglob("*.py"))) if path.is_dir() else [str(path)]
+        sources = (p for p in path.rglob("*") if p.suffix in (".py", ".c"))
+        files += sorted(map(str, sources)) if path.is_dir() else [str(path)]
     return files
 
 
@@ -135,7 +136,7 @@ def training_config(model_type):
 
 
 DISCOVERY_CODE = SIMULATION_CODE + package_files(
-    "discover", "forecast.py", "metrics.py"
+    "discover", "compiled", "observe.py", "forecast.py", "metrics.py"
 )
 # what a shipped case's data come from: its hidden effect, the simulation and the sensors
 # (so that a change of the discovery's own code does not simulate the data again)
