@@ -13,11 +13,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import Protocol
 
 import numpy as np
 
 from . import seeds
+from .compiled import CompiledModel
 from .integrate import rk4_step
 from .physics import CellModel
 from .pot_line import DAY_S, PotLine, PotLineOperation
@@ -232,16 +234,24 @@ def _inputs(x: np.ndarray, excitation: Mapping[str, np.ndarray], k: int, s: Simu
     )
 
 
-def simulate(model: CellModel, x0: np.ndarray, operator: Operator, settings: SimulationSettings) -> Trajectories:
-    """Simulate n trajectories together from x0 (n, 8), their inputs set by ``operator``."""
+def simulate(
+    model: CellModel, x0: np.ndarray, operator: Operator, settings: SimulationSettings, compiled: bool = False
+) -> Trajectories:
+    """Simulate n trajectories together from x0 (n, 8), their inputs set by ``operator``; ``compiled``:
+    each step by the compiled model (:class:`.compiled.CompiledModel`, numpy's numbers, without
+    numpy's cost per call: a few cells over days of steps)."""
     n, steps = x0.shape[0], settings.steps
     x = np.empty((n, steps, 8))
     u = np.empty((n, steps, 5))
     x[:, 0] = x0
+    if compiled:
+        step = CompiledModel(model, settings.dt, derivatives=False).step
+    else:
+        step = partial(rk4_step, model.rhs, dt=settings.dt)
     with np.errstate(all="ignore"):
         u[:, 0] = operator.inputs(x0, 0)
         for k in range(1, steps):
-            x[:, k] = rk4_step(model.rhs, x[:, k - 1], u[:, k - 1], settings.dt)
+            x[:, k] = step(x[:, k - 1], u[:, k - 1])
             u[:, k] = operator.inputs(x[:, k], k)
     return Trajectories(x, u)
 
@@ -254,6 +264,7 @@ def simulate_set(
     replicate: int,
     stream_name: str,
     max_attempts: int = 10,
+    compiled: bool = False,
 ) -> tuple[Trajectories, np.ndarray]:
     """A data set of ``n_trajectories``, with its per-trajectory attempt counts.
 
@@ -263,7 +274,7 @@ def simulate_set(
     the next attempt's excitation, as the authors' code does; the number of
     attempts is returned so that it can be recorded.  Under ``settings.operation``
     "pot_line" the excitation is the pot line's (:mod:`costa.pot_line`): each cell's
-    phase and current noise from (``stream_name``/pot_line, i, attempt).
+    phase and current noise from (``stream_name``/pot_line, i, attempt).  ``compiled``: see :func:`simulate`.
     """
     initial = settings.initial
     if settings.operation == "pot_line" and settings.pot_line is not None:
@@ -282,7 +293,7 @@ def simulate_set(
                 f"{stream_name}: trajectories {todo.tolist()} left the finite numbers in {max_attempts} attempts"
             )
         operator = _operator(model, settings, seed, replicate, stream_name, todo, attempts[todo])
-        result = simulate(model, x0[todo], operator, settings)
+        result = simulate(model, x0[todo], operator, settings, compiled)
         x[todo], u[todo] = result.x, result.u
         finite = np.isfinite(result.x).all(axis=(1, 2)) & np.isfinite(result.u).all(axis=(1, 2))
         attempts[todo] += 1

@@ -37,7 +37,7 @@ def case_tables(
     tables = []
     for split, count in _counts(discovery, sensor_set).items():
         stream = f"discovery/{case.name}/{split}"
-        trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream)
+        trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream, compiled=True)
         x, u = trajectories.x, trajectories.u
         values = observe(true, x, u, sensor_set.channels).reshape(-1, len(sensor_set.channels))
         default = dict(zip(sensor_set.channels, case.noise * values.std(axis=0), strict=True))

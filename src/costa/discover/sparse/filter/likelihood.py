@@ -134,21 +134,22 @@ def _rows(obs: Observations, hypotheses: Sequence[Hypothesis], walks: Sequence[f
 def _filter(model, hypotheses, scales, obs: Observations, window: int, walks, backward: bool):
     """The batch of :func:`_rows` through the smoother (with null rows when only filtering); returns
     the rows' (hypothesis, walk) pairs too.  z = (x1..x8, scaled delta); one model is composed for
-    the whole batch, hypothesis j reading a delta of its own, which is the scaled delta of the rows it
-    owns (and 0 on the others: the mixing of row b holds scale j at hypothesis j = which[b] alone);
-    each row's delta is a random walk of its own step."""
+    the whole batch from the hypotheses that own rows, hypothesis j reading a delta of its own, which
+    is the scaled delta of the rows it owns (and 0 on the others: the mixing of row b holds scale j at
+    hypothesis j = which[b] alone); each row's delta is a random walk of its own step."""
     pairs, y, u, mean, cov = _rows(obs, hypotheses, walks, scales, null=not backward)
     n = obs.y.shape[0]
     walk = np.repeat([w for _, w in pairs], n) / np.sqrt(window)
     which = np.repeat([j for j, _ in pairs], n)
-    deltas = [Parameters() for _ in hypotheses]
+    present = sorted({j for j, _ in pairs if j >= 0})
+    deltas = [Parameters() for _ in present]
     composed = model
-    for h, delta in zip(hypotheses, deltas, strict=True):
-        composed = h.driven(composed, delta)
+    for j, delta in zip(present, deltas, strict=True):
+        composed = hypotheses[j].driven(composed, delta)
     kernel = CompiledModel(composed, obs.dt, obs.channels, deltas, augmented=1)
-    mixing = np.zeros((len(which), len(hypotheses), 1))
+    mixing = np.zeros((len(which), len(present), 1))
     owned = np.flatnonzero(which >= 0)
-    mixing[owned, which[owned], 0] = scales[which[owned]]
+    mixing[owned, np.searchsorted(present, which[owned]), 0] = scales[which[owned]]
     process = np.column_stack([np.tile(PROCESS_STD, (len(walk), 1)), walk])
     return pairs, kernel.smooth(y, u, mean, cov, process, obs.noise, mixing, backward=backward)
 
