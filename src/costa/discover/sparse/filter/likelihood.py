@@ -116,42 +116,50 @@ def likelihood_gains(rows: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np
     return gains, np.isfinite(rows[:, ~held]).sum(-1)
 
 
-def _rows(obs: Observations, hypotheses: Sequence[Hypothesis], walks: Sequence[float], scales: np.ndarray, null: bool):
-    """Every (hypothesis, walk step, trajectory) row of a batch, with its measurements, inputs and prior;
-    ``null``: rows of the model without any hypothesis first (index -1)."""
-    n = obs.y.shape[0]
-    pairs = [(-1, 0.0)] * null + [(j, w) for j in range(len(hypotheses)) for w in walks if scales[j] > 0]
+def _rows(obs: Observations, pairs: Sequence[tuple[int, float]]):
+    """The (hypothesis, walk step) ``pairs``' rows, a trajectory each: their measurements, inputs and
+    prior (the delta's: none for the model without a hypothesis, index -1)."""
+    n, reps = obs.y.shape[0], len(pairs)
     which = np.repeat([p[0] for p in pairs], n)
-    reps = len(pairs)
     y, u = np.tile(obs.y, (reps, 1, 1)), np.tile(obs.u, (reps, 1, 1))
     mean, cov = obs.prior()
     mean = np.concatenate([np.tile(mean, (reps, 1)), np.zeros((n * reps, 1))], axis=1)
     cov = np.tile(np.diag(np.append(np.diag(cov), DELTA_PRIOR**2)), (n * reps, 1, 1))
     cov[:, 8, 8] = np.where(which >= 0, DELTA_PRIOR**2, 0.0)
-    return pairs, y, u, mean, cov
+    return y, u, mean, cov
 
 
 def _filter(model, hypotheses, scales, obs: Observations, window: int, walks, backward: bool):
-    """The batch of :func:`_rows` through the smoother (with null rows when only filtering); returns
-    the rows' (hypothesis, walk) pairs too.  z = (x1..x8, scaled delta); one model is composed for
-    the whole batch from the hypotheses that own rows, hypothesis j reading a delta of its own, which
-    is the scaled delta of the rows it owns (and 0 on the others: the mixing of row b holds scale j at
-    hypothesis j = which[b] alone); each row's delta is a random walk of its own step."""
-    pairs, y, u, mean, cov = _rows(obs, hypotheses, walks, scales, null=not backward)
-    n = obs.y.shape[0]
-    walk = np.repeat([w for _, w in pairs], n) / np.sqrt(window)
-    which = np.repeat([j for j, _ in pairs], n)
-    present = sorted({j for j, _ in pairs if j >= 0})
-    deltas = [Parameters() for _ in present]
-    composed = model
-    for j, delta in zip(present, deltas, strict=True):
-        composed = hypotheses[j].driven(composed, delta)
-    kernel = CompiledModel(composed, obs.dt, obs.channels, deltas, augmented=1)
-    mixing = np.zeros((len(which), len(present), 1))
-    owned = np.flatnonzero(which >= 0)
-    mixing[owned, np.searchsorted(present, which[owned]), 0] = scales[which[owned]]
-    process = np.column_stack([np.tile(PROCESS_STD, (len(walk), 1)), walk])
-    return pairs, kernel.smooth(y, u, mean, cov, process, obs.noise, mixing, backward=backward)
+    """Every (hypothesis, walk step, trajectory) row through the smoother, with the model's own rows
+    (no hypothesis, index -1) first when only filtering; returns the rows' (hypothesis, walk) pairs
+    in their order.  z = (x1..x8, scaled delta), each row's delta a random walk of its own step.
+
+    The rows of each kind of hypothesis go through one model composed of that kind's hypotheses,
+    hypothesis j reading a delta of its own: the scaled delta of the rows it owns, 0 on the others
+    (row b's mixing holds scale j at j = which[b] alone).  A row's numbers are those of the model
+    corrected by its own hypothesis alone; a kind's model is the cost of a row (the 58 hypotheses'
+    corrections composed at once doubled it)."""
+    pairs = [(-1, 0.0)] * (not backward) + [(j, w) for j in range(len(hypotheses)) for w in walks if scales[j] > 0]
+    kinds = {j: hypotheses[j].kind if j >= 0 else None for j, _ in pairs}
+    pairs = sorted(pairs, key=lambda p: list(dict.fromkeys(kinds.values())).index(kinds[p[0]]))  # stable: by kind
+    n, parts = obs.y.shape[0], []
+    for kind in dict.fromkeys(kinds[j] for j, _ in pairs):
+        group = [p for p in pairs if kinds[p[0]] == kind]
+        present = sorted({j for j, _ in group if j >= 0})
+        deltas = [Parameters() for _ in present]
+        composed = model
+        for j, delta in zip(present, deltas, strict=True):
+            composed = hypotheses[j].driven(composed, delta)
+        which = np.repeat([j for j, _ in group], n)
+        mixing = np.zeros((len(which), len(present), 1))
+        owned = np.flatnonzero(which >= 0)
+        mixing[owned, np.searchsorted(present, which[owned]), 0] = scales[which[owned]]
+        walk = np.repeat([w for _, w in group], n) / np.sqrt(window)
+        process = np.column_stack([np.tile(PROCESS_STD, (len(walk), 1)), walk])
+        kernel = CompiledModel(composed, obs.dt, obs.channels, deltas, augmented=1)
+        parts.append(kernel.smooth(*_rows(obs, group), process, obs.noise, mixing, backward=backward))
+    fields = ("mean", "std", "innovation", "log_likelihood", "final_cov")
+    return pairs, Smoothed(*(np.concatenate([getattr(part, f) for part in parts]) for f in fields))
 
 
 def score_hypotheses(
