@@ -30,6 +30,7 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import os
+import platform
 import shutil
 import subprocess
 import tempfile
@@ -121,19 +122,21 @@ def _dual(
 
 
 def _library(source: str, derivatives: bool) -> ctypes.CDLL:
-    """The shared library of ``source``, compiled into :func:`kernel_cache` under the hash of its text
-    (the C file kept beside it)."""
-    name = "costa_kernel_" + hashlib.sha256(source.encode()).hexdigest()[:24]
+    """The shared library of ``source``, compiled into :func:`kernel_cache` under the hash of its text,
+    the machine's kind and the compiler (the C file kept beside it)."""
+    compiler = shutil.which(os.environ.get("CC") or "cc")
+    if compiler is None:
+        raise RuntimeError(
+            f"discovery compiles the cell model to C and found no C compiler ({os.environ.get('CC') or 'cc'}): "
+            "install gcc or clang, or name one in CC"
+        )
+    # a cache shared by machines of other kinds (a cluster's home folder) keeps each kind's own library
+    built_by = f"{platform.machine()} {os.path.realpath(compiler)} {' '.join(CFLAGS)}"
+    name = "costa_kernel_" + hashlib.sha256(f"{built_by}\n{source}".encode()).hexdigest()[:24]
     folder = kernel_cache()
     folder.mkdir(parents=True, exist_ok=True)
     library = folder / f"{name}.so"
     if not library.exists():
-        compiler = shutil.which(os.environ.get("CC") or "cc")
-        if compiler is None:
-            raise RuntimeError(
-                f"discovery compiles the cell model to C and found no C compiler ({os.environ.get('CC') or 'cc'}): "
-                "install gcc or clang, or name one in CC"
-            )
         with tempfile.TemporaryDirectory(dir=folder) as work:
             c_file, built = Path(work) / f"{name}.c", Path(work) / f"{name}.so"
             c_file.write_text(source)
