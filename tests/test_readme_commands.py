@@ -295,6 +295,14 @@ def check_form_screen_benchmark(command, smoke_run, tmp_path):
     assert all(key in result.stdout for key in ("screen of 3", "by BIC gain", "verdict:")), result.stdout
 
 
+def check_compiled_step_benchmark(command, smoke_run, tmp_path):
+    """The step's and the tangents' rates at the fits' batch sizes, each beside numpy's in the same process."""
+    result = run_command(smoke_run, command, timeout=600)
+    assert result.returncode == 0, result.stderr[-4000:]
+    rows = re.findall(r"^\s+(96|1152|10000)\s+\S+ M\s+\S+ M\s+\S+x$", result.stdout, re.MULTILINE)
+    assert rows == ["96", "1152", "10000"] and "compiled tangents" in result.stdout, result.stdout
+
+
 def check_measure_next_loop(command, smoke_run, tmp_path):
     """Its whole run is the shipped cases under a sensor set (tens of minutes each): here its usage, and the
     choice of the measurement it adds from a findings file."""
@@ -358,6 +366,7 @@ RUN_CHECKS = {
     "python benchmarks/shooting_fits.py": check_shooting_benchmark,
     "python benchmarks/form_screen.py": check_form_screen_benchmark,
     "python benchmarks/measure_next_loop.py": check_measure_next_loop,
+    "python benchmarks/compiled_step.py": check_compiled_step_benchmark,
     "pytest -m slow": check_suite_is_collected,
     "pytest -m integration": check_suite_is_collected,
     "snakemake --cores 2 --software-deployment-method conda": check_conda_dry_run,
