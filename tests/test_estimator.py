@@ -134,3 +134,21 @@ def test_a_trajectory_whose_covariance_turns_singular_does_not_stop_the_others()
     alone = system.smooth(y[::2], u[::2], mean0[::2], cov0, *noise)
     np.testing.assert_allclose(result.mean[::2], alone.mean, rtol=1e-12)
     np.testing.assert_allclose(result.log_likelihood[::2], alone.log_likelihood, rtol=1e-12)
+
+
+def test_a_trajectory_whose_innovation_covariance_is_not_positive_definite_is_lost_not_scored():
+    """A covariance that is no longer one (here a negative prior variance; in a diverging filter, round-off)
+    makes S = H P H' + R indefinite: the log density N(r; 0, S) is then undefined (r' S^-1 r can be
+    hugely negative, a likelihood far above any real one), so the trajectory is lost (NaN) from there;
+    the others are as when run alone."""
+    rng = np.random.default_rng(5)
+    a, b, h = _matrices()
+    n, steps = 3, 8
+    u, y, mean0 = rng.normal(size=(n, steps, 1)), rng.normal(size=(n, steps, 2)), rng.normal(size=(n, 3))
+    cov0 = np.repeat(np.diag([1.0, 2.0, 0.5])[None], n, axis=0)
+    cov0[1, 1, 1] = -4.0  # S's second diagonal: -4 + 0.5 + 0.2^2 < 0
+    system = _linear_system(a, b, h)
+    result = system.smooth(y, u, mean0, cov0, PROCESS_STD, NOISE_STD)
+    assert np.isnan(result.log_likelihood[1]) and np.isnan(result.mean[1]).all()
+    alone = system.smooth(y[::2], u[::2], mean0[::2], cov0[::2], PROCESS_STD, NOISE_STD)
+    np.testing.assert_array_equal(result.log_likelihood[::2], alone.log_likelihood)

@@ -221,6 +221,24 @@ static int lu_factor(const int n, double *a, int *pivot)
     return 0;
 }
 
+/* 1 where the symmetric a (n x n) is not positive definite (or not finite): its Cholesky factor fails */
+static int not_positive_definite(const int n, const double *a)
+{
+    double l[n * n > 0 ? n * n : 1];
+    for (int j = 0; j < n; j++) {
+        double diagonal = a[j * n + j];
+        for (int k = 0; k < j; k++) diagonal -= l[j * n + k] * l[j * n + k];
+        if (!(diagonal > 0.0) || !isfinite(diagonal)) return 1;
+        l[j * n + j] = sqrt(diagonal);
+        for (int i = j + 1; i < n; i++) {
+            double sum = a[i * n + j];
+            for (int k = 0; k < j; k++) sum -= l[i * n + k] * l[j * n + k];
+            l[i * n + j] = sum / l[j * n + j];
+        }
+    }
+    return 0;
+}
+
 /* b (n x m) <- a^-1 b, a factored by lu_factor */
 static void lu_solve(const int n, const double *a, const int *pivot, double *b, const int m)
 {
@@ -300,7 +318,8 @@ static double update(const double *x, const double *u, const double *p, const do
     symmetrised(NC, s);
     for (int c = 0; c < NC; c++) innovation[c] = measured[c] ? residual[c] / sqrt(s[c * NC + c]) : NAN;
     for (int i = 0; i < NC * NC; i++) lu[i] = s[i];
-    if (NC > 0 && lu_factor(NC, lu, pivot)) { /* a singular S: this row is lost from here */
+    if (NC > 0 && (not_positive_definite(NC, s) || lu_factor(NC, lu, pivot))) {
+        /* S not a covariance (the filter's P lost, or singular): this row is lost from here */
         fill_nan(L, mean);
         fill_nan(L * L, cov);
         return NAN;
