@@ -34,8 +34,10 @@ import platform
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -45,7 +47,7 @@ from ..observe import observe
 from ..physics import CellModel
 from .trace import Program, Row, literal
 
-__all__ = ["CompiledModel", "CompiledSystem", "Parameters", "Smoothed", "kernel_cache"]
+__all__ = ["CompiledModel", "CompiledSystem", "Parameters", "Smoothed", "compile_side_by_side", "kernel_cache"]
 
 #: the compiler's options: no contraction of a * b + c into one rounding, no vector ISA beyond the
 #: platform's baseline, ``errno`` not set by the math functions (their values are the same)
@@ -167,6 +169,13 @@ def _threads() -> int:
     return max(1, int(value)) if value.isdigit() else 1
 
 
+def compile_side_by_side(systems: Iterable[CompiledSystem]) -> None:
+    """Compile the ``systems`` (made with ``compiled=False``) at once, as many compilers as the job has
+    threads: a batch of models then costs about its longest compiles, not their sum."""
+    with ThreadPoolExecutor(max_workers=_threads()) as pool:
+        list(pool.map(lambda system: system._library, systems))
+
+
 def _rows(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=float)
 
@@ -199,7 +208,8 @@ class CompiledSystem:
     numbers u and the ``parameters``' values, with ``channels`` sensors and ``augmented`` further
     states for the smoother (default: one per parameter number, read as the parameters themselves).
     ``derivatives`` False: the values alone (:meth:`step`, :meth:`sense`, :meth:`march`), compiled
-    in a fraction of the time."""
+    in a fraction of the time.  ``compiled`` False: traced now, compiled at first use or by
+    :func:`compile_side_by_side` with others."""
 
     def __init__(
         self,
@@ -211,14 +221,22 @@ class CompiledSystem:
         augmented: int | None = None,
         title: str = "a compiled system",
         derivatives: bool = True,
+        compiled: bool = True,
     ):
         self.states, self.inputs, self.channels = states, inputs, channels
         self.parameters = tuple(parameters)
         self.size = sum(p.size for p in self.parameters)
         self.augmented = self.size if augmented is None else augmented
         self.directions = states + self.augmented
-        self._library = _library(self._source(functions, title, derivatives), derivatives)
-        self._library.set_threads(_threads())
+        self._text, self._derivatives = self._source(functions, title, derivatives), derivatives
+        if compiled:
+            _ = self._library  # compiled (or found in the cache) now
+
+    @cached_property
+    def _library(self) -> ctypes.CDLL:
+        loaded = _library(self._text, self._derivatives)
+        loaded.set_threads(_threads())
+        return loaded
 
     def _source(self, functions: Mapping[str, Traced], title: str, derivatives: bool) -> str:
         x_names = [f"x{i}" for i in range(self.states)]
@@ -364,6 +382,7 @@ class CompiledModel(CompiledSystem):
         parameters: Sequence[Parameters] = (),
         augmented: int | None = None,
         derivatives: bool = True,
+        compiled: bool = True,
     ):
         self.model, self.dt = model, float(dt)
 
@@ -384,4 +403,4 @@ class CompiledModel(CompiledSystem):
         self.size = sum(p.size for p in parameters)
         functions = {"rates": rates, "step": step, "sensors": sensors}
         title = f"the cell model: RK4 of dt {self.dt!r} s, channels {list(channels)}"
-        super().__init__(functions, 8, 5, len(channels), parameters, augmented, title, derivatives)
+        super().__init__(functions, 8, 5, len(channels), parameters, augmented, title, derivatives, compiled)

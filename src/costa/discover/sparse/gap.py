@@ -39,7 +39,7 @@ def _rollout_from_estimate(model: CellModel, obs: Observations, start_steps: int
     places its start, and each model starts where it would place the cell itself)."""
     early = obs.steps(0, start_steps).with_start(model)
     estimated = estimate_states(model, early.y, early.u, early.channels, early.noise, early.dt, start=early.start)
-    channels, _ = CompiledModel(model, obs.dt, obs.channels).march(estimated.mean[:, 0], obs.u)
+    channels, _ = CompiledModel(model, obs.dt, obs.channels, derivatives=False).march(estimated.mean[:, 0], obs.u)
     return channels
 
 

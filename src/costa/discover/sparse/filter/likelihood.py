@@ -23,7 +23,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ....compiled import CompiledModel, Parameters, Smoothed
+from ....compiled import CompiledModel, Parameters, Smoothed, compile_side_by_side
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis
 from ...core.library import Feature
@@ -56,7 +56,7 @@ def _responses(
     shifted = model
     for j, parameter in zip(present, deltas, strict=True):
         shifted = hypotheses[j].driven(shifted, parameter)
-    kernel = CompiledModel(shifted, obs.dt, obs.channels, deltas)
+    kernel = CompiledModel(shifted, obs.dt, obs.channels, deltas, derivatives=False)
     values = [np.where(which == j, delta, 0.0) for j in present]
     copies = len(which) // len(x)
     inputs = np.tile(u, (copies, 1, 1))
@@ -142,7 +142,7 @@ def _filter(model, hypotheses, scales, obs: Observations, window: int, walks, ba
     pairs = [(-1, 0.0)] * (not backward) + [(j, w) for j in range(len(hypotheses)) for w in walks if scales[j] > 0]
     kinds = {j: hypotheses[j].kind if j >= 0 else None for j, _ in pairs}
     pairs = sorted(pairs, key=lambda p: list(dict.fromkeys(kinds.values())).index(kinds[p[0]]))  # stable: by kind
-    n, parts = obs.y.shape[0], []
+    n, batches = obs.y.shape[0], []
     for kind in dict.fromkeys(kinds[j] for j, _ in pairs):
         group = [p for p in pairs if kinds[p[0]] == kind]
         present = sorted({j for j, _ in group if j >= 0})
@@ -156,8 +156,13 @@ def _filter(model, hypotheses, scales, obs: Observations, window: int, walks, ba
         mixing[owned, np.searchsorted(present, which[owned]), 0] = scales[which[owned]]
         walk = np.repeat([w for _, w in group], n) / np.sqrt(window)
         process = np.column_stack([np.tile(PROCESS_STD, (len(walk), 1)), walk])
-        kernel = CompiledModel(composed, obs.dt, obs.channels, deltas, augmented=1)
-        parts.append(kernel.smooth(*_rows(obs, group), process, obs.noise, mixing, backward=backward))
+        kernel = CompiledModel(composed, obs.dt, obs.channels, deltas, augmented=1, compiled=False)
+        batches.append((kernel, group, process, mixing))
+    compile_side_by_side(kernel for kernel, *_ in batches)
+    parts = [
+        kernel.smooth(*_rows(obs, group), process, obs.noise, mixing, backward=backward)
+        for kernel, group, process, mixing in batches
+    ]
     fields = ("mean", "std", "innovation", "log_likelihood", "final_cov")
     return pairs, Smoothed(*(np.concatenate([getattr(part, f) for part in parts]) for f in fields))
 
