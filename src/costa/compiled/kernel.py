@@ -151,8 +151,7 @@ def _library(source: str, derivatives: bool) -> ctypes.CDLL:
             os.replace(built, library)  # atomic: a job beside this one sees the whole library or none
     loaded = ctypes.CDLL(str(library))
     pointer, count = ctypes.c_void_p, ctypes.c_long
-    for function in ("march_channels", "march_states", "march_end"):
-        getattr(loaded, function).argtypes = [count, count, *[pointer] * 5]
+    loaded.march.argtypes = [count, count, *[pointer] * 5, ctypes.c_int]
     for function in ("step_rows", "sense_rows"):
         getattr(loaded, function).argtypes = [count, *[pointer] * 4]
     loaded.set_threads.argtypes = [ctypes.c_int]
@@ -310,8 +309,8 @@ class CompiledSystem:
         width = {"channels": self.channels, "states": self.states, None: 0}[record]
         x, u, p = _rows(x), _rows(u), self._values(rows, values)
         out, end = np.empty((rows, steps, width)), np.empty((rows, self.states))
-        march = {"channels": "march_channels", "states": "march_states", None: "march_end"}[record]
-        getattr(self._library, march)(rows, steps, *_pointers(x, u, p, out, end))
+        recorded = {None: 0, "channels": 1, "states": 2}[record]  # system.c's RECORD_NONE, _CHANNELS, _STATES
+        self._library.march(rows, steps, *_pointers(x, u, p, out, end), recorded)
         return end if record is None else (out, end)
 
     def march_tangents(self, x: np.ndarray, u: np.ndarray, values: np.ndarray, dx: np.ndarray, dp: np.ndarray):

@@ -19,8 +19,9 @@ typedef struct {
     long R, S;
     const double *X, *U, *P, *DX, *DP, *Y, *MIX, *MEAN0, *COV0, *Q, *RV;
     double *OUT, *END, *DOUT, *DEND, *MEAN, *STD, *INNOVATION, *LL, *FINAL;
-    int backward, status;
+    int backward, status, record;
 } call_t;
+enum { RECORD_NONE, RECORD_CHANNELS, RECORD_STATES };
 typedef void (*rows_t)(call_t *, long, long);
 typedef struct {
     call_t *call;
@@ -59,7 +60,7 @@ static void parallel(call_t *call, rows_t work)
 
 /* --- the system's functions --- */
 
-static void march_channels_rows(call_t *c, const long begin, const long end)
+static void march_rows(call_t *c, const long begin, const long end)
 {
     const long S = c->S;
     for (long r = begin; r < end; r++) {
@@ -68,40 +69,9 @@ static void march_channels_rows(call_t *c, const long begin, const long end)
         for (int i = 0; i < NX; i++) x[i] = c->X[r * NX + i];
         for (long s = 0; s < S; s++) {
             const double *u = c->U + (r * S + s) * NU;
-            sensors(ARGS, c->OUT + (r * S + s) * NC);
-            step(ARGS, next);
-            for (int i = 0; i < NX; i++) x[i] = next[i];
-        }
-        for (int i = 0; i < NX; i++) c->END[r * NX + i] = x[i];
-    }
-}
-
-static void march_states_rows(call_t *c, const long begin, const long end)
-{
-    const long S = c->S;
-    for (long r = begin; r < end; r++) {
-        double x[NX], next[NX];
-        const double *p = c->P + r * NP;
-        for (int i = 0; i < NX; i++) x[i] = c->X[r * NX + i];
-        for (long s = 0; s < S; s++) {
-            const double *u = c->U + (r * S + s) * NU;
-            for (int i = 0; i < NX; i++) c->OUT[(r * S + s) * NX + i] = x[i];
-            step(ARGS, next);
-            for (int i = 0; i < NX; i++) x[i] = next[i];
-        }
-        for (int i = 0; i < NX; i++) c->END[r * NX + i] = x[i];
-    }
-}
-
-static void march_end_rows(call_t *c, const long begin, const long end)
-{
-    const long S = c->S;
-    for (long r = begin; r < end; r++) {
-        double x[NX], next[NX];
-        const double *p = c->P + r * NP;
-        for (int i = 0; i < NX; i++) x[i] = c->X[r * NX + i];
-        for (long s = 0; s < S; s++) {
-            const double *u = c->U + (r * S + s) * NU;
+            if (c->record == RECORD_CHANNELS) sensors(ARGS, c->OUT + (r * S + s) * NC);
+            if (c->record == RECORD_STATES)
+                for (int i = 0; i < NX; i++) c->OUT[(r * S + s) * NX + i] = x[i];
             step(ARGS, next);
             for (int i = 0; i < NX; i++) x[i] = next[i];
         }
@@ -125,28 +95,15 @@ static void sense_rows_rows(call_t *c, const long begin, const long end)
     }
 }
 
-/* From X (R, NX) over U (R, S, NU) with the parameters P (R, NP): the channels OUT (R, S, NC) (march_channels)
-   or the states (R, S, NX) (march_states) at each step before it, or nothing (march_end); the states END (R, NX)
-   after the last.  step_rows, sense_rows: one step (OUT (R, NX)), the channels (OUT (R, NC)) at X, U (R, NU). */
-void march_channels(const long R, const long S, const double *X, const double *U, const double *P, double *OUT,
-                    double *END)
+/* From X (R, NX) over U (R, S, NU) with the parameters P (R, NP): the channels OUT (R, S, NC) (record
+   RECORD_CHANNELS) or the states (R, S, NX) (RECORD_STATES) at each step before it, or nothing (RECORD_NONE);
+   the states END (R, NX) after the last.  step_rows, sense_rows: one step (OUT (R, NX)), the channels
+   (OUT (R, NC)) at X, U (R, NU). */
+void march(const long R, const long S, const double *X, const double *U, const double *P, double *OUT, double *END,
+           const int record)
 {
-    call_t c = {.R = R, .S = S, .X = X, .U = U, .P = P, .OUT = OUT, .END = END};
-    parallel(&c, march_channels_rows);
-}
-
-void march_states(const long R, const long S, const double *X, const double *U, const double *P, double *OUT,
-                  double *END)
-{
-    call_t c = {.R = R, .S = S, .X = X, .U = U, .P = P, .OUT = OUT, .END = END};
-    parallel(&c, march_states_rows);
-}
-
-void march_end(const long R, const long S, const double *X, const double *U, const double *P, double *OUT,
-               double *END)
-{
-    call_t c = {.R = R, .S = S, .X = X, .U = U, .P = P, .OUT = OUT, .END = END};
-    parallel(&c, march_end_rows);
+    call_t c = {.R = R, .S = S, .X = X, .U = U, .P = P, .OUT = OUT, .END = END, .record = record};
+    parallel(&c, march_rows);
 }
 
 void step_rows(const long R, const double *X, const double *U, const double *P, double *OUT)
