@@ -10,7 +10,9 @@ compared byte).
 
 from __future__ import annotations
 
+import tempfile
 import time
+from pathlib import Path
 
 import pytest
 from conftest import SMOKE_COMMAND, TIMINGS, repository_copy, result_hashes, run_command
@@ -36,7 +38,9 @@ TEST_CLUSTER_FLAGS = (
 
 def test_smoke_run_on_slurm_matches_the_local_run(smoke_run, tmp_path):
     workdir = repository_copy(tmp_path / "repository")
-    with local_slurm(tmp_path / "cluster") as env:
+    # slurmd's sockets live under the cluster's folder, and a Unix socket's path holds at most 108
+    # bytes: pytest's tmp_path (longer under pytest-xdist) can exceed it, so the cluster sits in /tmp
+    with tempfile.TemporaryDirectory(prefix="costa-slurm-") as short, local_slurm(Path(short)) as env:
         started = time.perf_counter()
         command = CLUSTER_COMMAND.replace(" --configfile", f" {COMPARED_TARGETS} --configfile")
         result = run_command(workdir, f"{command} {TEST_CLUSTER_FLAGS}", env=env, timeout=1200)
