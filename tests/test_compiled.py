@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from costa.compiled import CompiledModel, Parameters
+from costa.compiled import CompiledModel, Parameters, compile_side_by_side
 from costa.compiled.trace import Program, Row
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.sparse.observed import NOMINAL_STATE, PRIOR_STD
@@ -132,3 +132,18 @@ def test_operations_are_written_once_and_unused_ones_dropped():
     unused = a + b  # noqa: F841
     assert first.name == again.name
     assert [op.name for op in program.pruned(Row([first]).items).operations] == [first.name]
+
+
+def test_models_compiled_side_by_side_step_as_each_compiled_alone(monkeypatch, tmp_path):
+    """Traced now, compiled later on two threads at once: the libraries land in the cache and the steps
+    are those of the same models compiled as they are made."""
+    monkeypatch.setenv("COSTA_KERNEL_CACHE", str(tmp_path))
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    models = [true_model(), ablated_model()]
+    later = [CompiledModel(m, 10.0, ("U_cell", "x6"), derivatives=False, compiled=False) for m in models]
+    assert not list(tmp_path.glob("*.so"))
+    compile_side_by_side(later)
+    assert len(list(tmp_path.glob("*.so"))) == 2
+    x, u = _rows(np.random.default_rng(2), 4, spread=0.01)
+    for model, kernel in zip(models, later, strict=True):
+        np.testing.assert_array_equal(kernel.step(x, u), CompiledModel(model, 10.0, derivatives=False).step(x, u))
