@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shutil
 import subprocess
 import sys
 
@@ -69,6 +70,15 @@ def test_two_replicates_are_aggregated_plotted_and_reported(tmp_path):
 def test_second_run_has_nothing_to_do(smoke_run):
     result = snakemake(smoke_run, "--configfile", str(REPOSITORY / "config" / "smoke.yaml"), "--dry-run")
     assert "Nothing to be done" in result.stdout + result.stderr
+
+
+def test_a_moved_run_has_nothing_to_do(smoke_run, tmp_path):
+    """Snakemake records each job's inputs by path: the library's files are recorded relative to the
+    run's folder, so that the folder moved (or copied) elsewhere is still up to date."""
+    moved = tmp_path / "moved"
+    shutil.copytree(smoke_run, moved, symlinks=True)
+    result = snakemake(moved, "results/smoke/discovery/summary.csv", "--dry-run", "--configfile", "config/smoke.yaml")
+    assert "Nothing to be done" in result.stdout + result.stderr, result.stdout[-3000:]
 
 
 def test_bad_config_stops_with_the_key_and_keeps_results(smoke_run):

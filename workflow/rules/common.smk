@@ -24,6 +24,18 @@ from costa.sensors import Sensor, declared_noise as sensor_noise  # noqa: E402
 os.environ.update(kernel_environment(config["kernels"]))
 
 
+def checkout_file(relative):
+    """A file of this checkout as a rule's input, relative to the working directory where it lies
+    under it: Snakemake records its inputs' paths, and an absolute one changes when the folder
+    moves (a moved or copied run would then redo every stage that reads the library)."""
+    path = Path(workflow.basedir) / relative
+    return (
+        os.path.relpath(path)
+        if path.resolve().is_relative_to(Path.cwd().resolve())
+        else str(path)
+    )
+
+
 RESULTS = config["output"]["results"]
 REPORT = config["output"]["report"]
 
@@ -87,7 +99,8 @@ def package_files(*modules):
     for module in modules:
         path = PACKAGE / module
         sources = (p for p in path.rglob("*") if p.suffix in (".py", ".c"))
-        files += sorted(map(str, sources)) if path.is_dir() else [str(path)]
+        found = sorted(sources) if path.is_dir() else [path]
+        files += [checkout_file(p.relative_to(workflow.basedir)) for p in found]
     return files
 
 

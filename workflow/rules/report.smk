@@ -1,8 +1,8 @@
 rule report:
     """The report notebook, executed on this run's results and rendered to HTML."""
     input:
-        notebook=f"{workflow.basedir}/report/report.py",
-        errata=f"{workflow.basedir}/docs/errata.md",
+        notebook=checkout_file("report/report.py"),
+        errata=checkout_file("docs/errata.md"),
         datasets=out("figures/datasets.png"),
         training_curves=out("figures/training_curves.png"),
         error_violins=out("figures/error_violins.png"),
