@@ -47,6 +47,7 @@ include: "workflow/rules/sensors.smk"
 include: "workflow/rules/replicates.smk"
 include: "workflow/rules/beyond.smk"
 include: "workflow/rules/peers.smk"
+include: "workflow/rules/benchmark.smk"
 include: "workflow/rules/report.smk"
 
 

@@ -273,7 +273,8 @@ def test_each_model_is_scored_from_the_start_it_searches_itself(default_config):
             true, placed.y, placed.u, placed.channels, placed.noise, placed.dt, False, placed.start
         )
         scored[name] = result.log_likelihood
-    lost_or_far = ~(scored["ablated"] >= -1e6)  # NaN (lost) or below -1e6 (cell 1: -3.7e6 under the finite-difference filter)
+    # NaN (lost) or below -1e6 (cell 1: -3.7e6 under the finite-difference filter)
+    lost_or_far = ~(scored["ablated"] >= -1e6)
     assert scored["own"].min() > 6e4 and lost_or_far.all(), scored
 
 

@@ -263,6 +263,18 @@ def check_peers_dry_run(command, smoke_run, tmp_path):
     assert "collect_peers" in result.stdout and "results/smoke/peers/summary.csv" in result.stdout
 
 
+def check_benchmark_dry_run(command, smoke_run, tmp_path):
+    """The quick size on the test seeds: each set's first drawn cases, their signals, one table."""
+    result = run_command(smoke_run, f"{on_smoke(command)} --dry-run")
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert (
+        "collect_benchmark" in result.stdout
+        and "results/smoke/benchmark/signal/pot_line/drawn100003.json" in result.stdout
+    )
+    assert "results/smoke/discovery/drawn100023/findings.json" in result.stdout
+    assert "discovery/drawn100008/sensors/partial" not in result.stdout  # partial's 8 cases are the first 8
+
+
 def check_bound_variants(command, smoke_run, tmp_path):
     """On the smoke run's trained models (its only replicate stands in for replicate 1)."""
     smoke = command.replace('--reps "" replicates/r1/', '--reps ""')
@@ -360,6 +372,7 @@ RUN_CHECKS = {
     "snakemake --cores 2 results/discovery/summary.csv --configfile config/discovery.yaml": check_nine_cases_dry_run,
     "snakemake --cores 2 --configfile config/beyond.yaml": check_beyond_dry_run,
     "snakemake --cores 2 results/peers/summary.csv": check_peers_dry_run,
+    "snakemake --cores 2 results/benchmark/summary.csv --configfile config/benchmark.yaml": check_benchmark_dry_run,
     'python benchmarks/bound_variants.py --reps "" replicates/r1/': check_bound_variants,
     "snakemake --report results/snakemake_report.html": check_report,
     "python benchmarks/train_speed.py": check_benchmark,

@@ -31,6 +31,28 @@ def check_config(config: Mapping[str, Any], schema_path: str | Path = SCHEMA) ->
         raise ConfigError(f"invalid config at '{where}': {error.message}")
 
 
+def _check_benchmark(benchmark: Mapping[str, Any], sensor_sets: Mapping[str, Any]) -> None:
+    """The benchmark's size is one of its sizes, each naming sensor sets that exist, within the seed range."""
+    from .discover.cases.drawn import SPLITS
+
+    sizes = benchmark["sizes"]
+    if benchmark["size"] not in sizes:
+        raise ConfigError(f"benchmark.size {benchmark['size']!r} is not one of benchmark.sizes {sorted(sizes)}")
+    for size, counts in sizes.items():
+        unknown = sorted(set(counts) - set(sensor_sets))
+        if unknown:
+            raise ConfigError(
+                f"benchmark.sizes.{size} {unknown} are not in discovery.sensor_sets {sorted(sensor_sets)}"
+            )
+        too_many = {s: n for s, n in counts.items() if n > len(SPLITS[benchmark["split"]])}
+        if too_many:
+            raise ConfigError(
+                f"benchmark.sizes.{size} {too_many}: more cases than the {benchmark['split']!r} seeds hold"
+            )
+    if list(benchmark["signal_bins"]) != sorted(set(benchmark["signal_bins"])):
+        raise ConfigError(f"benchmark.signal_bins {benchmark['signal_bins']} must increase")
+
+
 def check_consistency(config: Mapping[str, Any]) -> None:
     """Checks across keys that a schema cannot express; raise :class:`ConfigError` naming the keys."""
     from .metrics import EvaluationSettings
@@ -67,6 +89,7 @@ def check_consistency(config: Mapping[str, Any]) -> None:
         raise ConfigError(
             f"discovery.sensors {unknown_sets} are not in discovery.sensor_sets {sorted(config['discovery']['sensor_sets'])}"
         )
+    _check_benchmark(config["benchmark"], config["discovery"]["sensor_sets"])
     user = config["discovery"]["user_data"]
     if user and user["name"] in config["discovery"]["cases"]:
         raise ConfigError(

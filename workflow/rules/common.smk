@@ -157,6 +157,7 @@ CASE_DATA_CODE = SIMULATION_CODE + package_files(
     "discover/cases/shipped.py",
     "discover/cases/unshipped.py",
     "discover/cases/tables.py",
+    "discover/cases/drawn.py",
     "observe.py",
     "sensors.py",
 )
@@ -174,6 +175,24 @@ def _peer_cases():
 
 
 PEER_CASES = _peer_cases()
+# the benchmark's drawn cases (costa.discover.cases.drawn): a name, drawn<seed>, says all of one
+DRAWN_CASE = r"drawn\d+"
+BENCHMARK_SETS = config["benchmark"]["sizes"][config["benchmark"]["size"]]
+
+
+def _benchmark_cases():
+    """(case, sensor set) of the configured benchmark: each set's first cases of the split."""
+    from costa.discover.cases.drawn import split_cases
+
+    split = config["benchmark"]["split"]
+    return [
+        (case, sensors)
+        for sensors, count in BENCHMARK_SETS.items()
+        for case in split_cases(split, count)
+    ]
+
+
+BENCHMARK_CASES = _benchmark_cases()
 # the cases whose data are simulated: the configured ones and those the peers stage compares on
 SIMULATED_CASES = SHIPPED_CASES + [c for c in PEER_CASES if c not in SHIPPED_CASES]
 PEERS_CODE = DISCOVERY_CODE + TRAINING_CODE + package_files("peers")

@@ -10,7 +10,7 @@ rule discovery_case_data:
     benchmark:
         out("discovery/{case}/benchmarks/data.tsv")
     wildcard_constraints:
-        case="|".join(SIMULATED_CASES) or "^$",
+        case="|".join([*SIMULATED_CASES, DRAWN_CASE]),
     conda:
         ENV
     threads: 1

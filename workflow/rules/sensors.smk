@@ -11,7 +11,7 @@ rule discovery_sensor_data:
     benchmark:
         out("discovery/{case}/sensors/{sensors}/benchmarks/data.tsv")
     wildcard_constraints:
-        case="|".join(SHIPPED_CASES) or "^$",
+        case="|".join([*SHIPPED_CASES, DRAWN_CASE]),
         sensors="|".join(config["discovery"]["sensor_sets"]),
     conda:
         ENV
@@ -35,7 +35,7 @@ rule sensors_screen:
     benchmark:
         out("discovery/{case}/sensors/{sensors}/benchmarks/screen.tsv")
     wildcard_constraints:
-        case="|".join(SHIPPED_CASES) or "^$",
+        case="|".join([*SHIPPED_CASES, DRAWN_CASE]),
         sensors="|".join(config["discovery"]["sensor_sets"]),
     conda:
         ENV
@@ -65,7 +65,7 @@ rule sensors_fit:
     benchmark:
         out("discovery/{case}/sensors/{sensors}/benchmarks/fit_{job}_of_{jobs}.tsv")
     wildcard_constraints:
-        case="|".join(SHIPPED_CASES) or "^$",
+        case="|".join([*SHIPPED_CASES, DRAWN_CASE]),
         sensors="|".join(config["discovery"]["sensor_sets"]),
         job=r"\d+",
         jobs=r"\d+",
@@ -101,7 +101,7 @@ rule discover_with_sensors:
     benchmark:
         out("discovery/{case}/sensors/{sensors}/benchmarks/discover.tsv")
     wildcard_constraints:
-        case="|".join(SHIPPED_CASES) or "^$",
+        case="|".join([*SHIPPED_CASES, DRAWN_CASE]),
         sensors="|".join(config["discovery"]["sensor_sets"]),
     conda:
         ENV

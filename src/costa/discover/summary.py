@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["discovery_summary", "sensors_summary"]
+__all__ = ["discovery_summary", "judged", "sensors_summary"]
 
 
 def discovery_summary(
@@ -56,19 +56,34 @@ def _correct(f) -> bool | None:
     )
 
 
-def _verdict(f) -> str:
-    """What a run on a shipped case concluded, judged against what is hidden."""
+def judged(f) -> str:
+    """A run on a simulated case against what is hidden in it (its ``accepted`` names): right, wrong, not
+    identifiable (the truth listed among the equivalents or not), unexplained or missed; for a null case,
+    quiet, a false alarm (flagged, not named) or a false name."""
     named, accepted = f["named"], f.get("accepted", [])
     flagged = f.get("flagged_equations", f.get("flagged_channels", []))
-    if named:
-        if named[0] in accepted:
-            return "named correctly"
-        return f"wrongly named ({named[0]})"
-    if f["outcome"].startswith("not identifiable"):
-        return "not identifiable"
     if not accepted:
-        return "no effect, correctly" if not flagged else "unexplained (false alarm)"
-    return "unexplained" if flagged else "not detected"
+        return "false name" if named else "false alarm" if flagged else "quiet"
+    if named:
+        return "right" if named[0] in accepted else "wrong"
+    if f["outcome"].startswith("not identifiable"):
+        listed = {
+            c["hypothesis"] for r in f["rounds"] for c in [r.get("correction") or {}, *r.get("equivalent", [])] if c
+        }
+        return "not identifiable, truth listed" if listed & set(accepted) else "not identifiable, truth not listed"
+    return "unexplained" if flagged else "missed"
+
+
+def _verdict(f) -> str:
+    """What a run on a shipped case concluded, in the words of the sensors table."""
+    verdict = judged(f)
+    if verdict in ("wrong", "false name"):
+        return f"wrongly named ({f['named'][0]})"
+    return {
+        "right": "named correctly", "not identifiable, truth listed": "not identifiable",
+        "not identifiable, truth not listed": "not identifiable", "unexplained": "unexplained", "missed": "not detected",
+        "quiet": "no effect, correctly", "false alarm": "unexplained (false alarm)",
+    }[verdict]  # fmt: skip
 
 
 def sensors_summary(findings_paths: Sequence[str | Path], sensors: Sequence[str], window: str = "long") -> pd.DataFrame:

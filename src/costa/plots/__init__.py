@@ -1,5 +1,6 @@
 """One function per figure; each takes tidy tables and returns a matplotlib Figure."""
 
+from .benchmark import plot_recall_by_signal
 from .beyond import plot_noise_study
 from .datasets import plot_datasets
 from .discovery import plot_discovery
@@ -14,6 +15,7 @@ __all__ = [
     "plot_discovery",
     "plot_error_violins",
     "plot_noise_study",
+    "plot_recall_by_signal",
     "plot_replicate_blowups",
     "plot_rolling_forecast",
     "plot_training_curves",

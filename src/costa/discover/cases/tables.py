@@ -5,17 +5,18 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import replace
 
+import numpy as np
 import pandas as pd
 
 from ... import seeds
 from ...observe import observe
 from ...physics import model_from_config
-from ...sensors import measure, sensor_sets_from_config
+from ...sensors import SensorSet, measure, sensor_sets_from_config
 from ...simulate import SimulationSettings, simulate_set
 from .shipped import HiddenEffectCase
 from .unshipped import find_case
 
-__all__ = ["case_tables", "simulated_data"]
+__all__ = ["case_noise", "case_tables", "record_settings", "simulated_cells", "simulated_data"]
 
 
 def case_tables(
@@ -29,22 +30,42 @@ def case_tables(
     std over the data set (the full set is then every state with the case's noise).
     """
     case = find_case(case) if isinstance(case, str) else case
-    discovery = config["discovery"]
-    sensor_set = sensor_sets_from_config(discovery["sensor_sets"])[sensors]
-    settings = SimulationSettings.from_config(config["simulation"])
-    settings = replace(settings, steps=sensor_set.steps(settings.dt, settings.steps), operation=sensor_set.operation)
+    sensor_set, settings = record_settings(config, sensors)
     true, _ = case.models(model_from_config(config["physics"])[0])
     tables = []
-    for split, count in _counts(discovery, sensor_set).items():
+    for split in ("train", "held_out"):
+        x, u = simulated_cells(config, case, sensors, split)
+        default = case_noise(true, x, u, sensor_set, case.noise)
         stream = f"discovery/{case.name}/{split}"
-        trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream, compiled=True)
-        x, u = trajectories.x, trajectories.u
-        values = observe(true, x, u, sensor_set.channels).reshape(-1, len(sensor_set.channels))
-        default = dict(zip(sensor_set.channels, case.noise * values.std(axis=0), strict=True))
         noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
         rng = seeds.numpy_generator(config["seed"], 0, noise)
         tables.append(measure(true, x, u, settings.dt, sensor_set, rng, default))
     return tables[0], tables[1]
+
+
+def record_settings(config: Mapping, sensors: str) -> tuple[SensorSet, SimulationSettings]:
+    """A sensor set of ``discovery.sensor_sets`` and the simulation it measures (its length and operation)."""
+    sensor_set = sensor_sets_from_config(config["discovery"]["sensor_sets"])[sensors]
+    settings = SimulationSettings.from_config(config["simulation"])
+    return sensor_set, replace(
+        settings, steps=sensor_set.steps(settings.dt, settings.steps), operation=sensor_set.operation
+    )
+
+
+def simulated_cells(config: Mapping, case: HiddenEffectCase, sensors: str, split: str) -> tuple[np.ndarray, np.ndarray]:
+    """The true states (n, K, 8) and inputs (n, K, 5) of a case's cells to learn from (``train``) or held out."""
+    sensor_set, settings = record_settings(config, sensors)
+    true, _ = case.models(model_from_config(config["physics"])[0])
+    count = _counts(config["discovery"], sensor_set)[split]
+    stream = f"discovery/{case.name}/{split}"
+    trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream, compiled=True)
+    return trajectories.x, trajectories.u
+
+
+def case_noise(true, x: np.ndarray, u: np.ndarray, sensor_set: SensorSet, level: float) -> dict[str, float]:
+    """The noise std a channel that declares none gets: ``level`` times its std over the data."""
+    values = observe(true, x, u, sensor_set.channels).reshape(-1, len(sensor_set.channels))
+    return dict(zip(sensor_set.channels, level * values.std(axis=0), strict=True))
 
 
 def simulated_data(config: Mapping, case: str, sensors: str = "full") -> str:

@@ -44,8 +44,13 @@ UNSHIPPED: dict[str, HiddenEffectCase] = {
 
 
 def find_case(name: str) -> HiddenEffectCase:
-    """A shipped case or an unshipped one, by name (the shipped registry is read at call time)."""
+    """A shipped case, an unshipped one or a drawn one (``drawn<seed>``, :mod:`.drawn`), by name
+    (the shipped registry is read at call time)."""
+    from .drawn import DRAWN_NAME, drawn_case
+
+    if DRAWN_NAME.fullmatch(name):
+        return drawn_case(name)
     cases = {**CASES, **UNSHIPPED}
     if name not in cases:
-        raise ValueError(f"unknown discovery case {name!r}; known: {sorted(cases)}")
+        raise ValueError(f"unknown discovery case {name!r}; known: {sorted(cases)} and drawn<seed>")
     return cases[name]

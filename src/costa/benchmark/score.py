@@ -1,0 +1,120 @@
+"""The benchmark's numbers: each drawn case judged, and the rates per sensor set with their intervals.
+
+Per sensor set: **precision** = names right / names given (a null named counts as a wrong name);
+**recall** = names right / cases with an effect; both with a Wilson 95 % interval.  Cases found
+"not identifiable" are counted apart (with the truth among the listed equivalents or not), as are
+false alarms (a null flagged but not named) and false names (a null named).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.stats import binomtest
+
+from ..discover.cases.drawn import DRAWN_NAME, draw_effect
+from ..discover.summary import judged
+
+__all__ = ["case_table", "rates", "rates_markdown", "recall_by_signal", "wilson"]
+
+
+def wilson(successes: int, trials: int, level: float = 0.95) -> tuple[float, float]:
+    """The Wilson score interval of a proportion (nan, nan when there are no trials)."""
+    if trials == 0:
+        return float("nan"), float("nan")
+    interval = binomtest(int(successes), int(trials)).proportion_ci(level, method="wilson")
+    return float(interval.low), float(interval.high)
+
+
+def case_table(
+    findings_paths: Sequence[str | Path],
+    signal_paths: Sequence[str | Path],
+    sensors: Sequence[str],
+    seconds: Sequence[float],
+) -> pd.DataFrame:
+    """One row per case and sensor set (the sequences in the same order): the truth, the answer, the verdict."""
+    rows = []
+    for path, signal_path, sensor_set, spent in zip(findings_paths, signal_paths, sensors, seconds, strict=True):
+        f = json.loads(Path(path).read_text())
+        case = f["case"].split("/")[0]
+        effect = draw_effect(int(DRAWN_NAME.fullmatch(case).group(1)))
+        shown = json.loads(Path(signal_path).read_text())
+        rows.append({
+            "case": case, "sensors": sensor_set, "seed": effect.seed, "kind": effect.kind, "truth": effect.key or "",
+            "family": effect.family, "in_library": effect.in_library, "size": effect.size, "noise": effect.noise,
+            "signal": shown["signal"], "samples": shown["samples"], "accepted": " ".join(f["accepted"]),
+            "outcome": f["outcome"], "named": " then ".join(f["named"]), "verdict": judged(f), "seconds": spent,
+        })  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def rates(table: pd.DataFrame, order: Sequence[str] | None = None) -> pd.DataFrame:
+    """Per sensor set: the counts, precision and recall with their Wilson 95 % intervals, and seconds a case."""
+    rows = []
+    for sensor_set, group in table.groupby("sensors", sort=False):
+        count = group.verdict.value_counts()
+        effects, nulls = int((group.kind != "none").sum()), int((group.kind == "none").sum())
+        right, names = int(count.get("right", 0)), int(count.reindex(["right", "wrong", "false name"]).fillna(0).sum())
+        row: dict = {"sensors": sensor_set, "cases": len(group), "effects": effects, "nulls": nulls}
+        row |= {verdict: int(count.get(verdict, 0)) for verdict in _COUNTED}
+        row |= _rate("precision", right, names) | _rate("recall", right, effects)
+        row |= _rate("false_alarm_rate", int(count.get("false alarm", 0) + count.get("false name", 0)), nulls)
+        row |= {"median_seconds": float(group.seconds.median()), "total_seconds": float(group.seconds.sum())}
+        rows.append(row)
+    result = pd.DataFrame(rows)
+    return result.set_index("sensors").loc[list(order)].reset_index() if order else result
+
+
+_COUNTED = (
+    "right", "wrong", "not identifiable, truth listed", "not identifiable, truth not listed", "unexplained", "missed",
+    "quiet", "false alarm", "false name",
+)  # fmt: skip
+
+
+def _rate(name: str, successes: int, trials: int) -> dict[str, float]:
+    low, high = wilson(successes, trials)
+    return {name: successes / trials if trials else float("nan"), f"{name}_low": low, f"{name}_high": high}
+
+
+def recall_by_signal(table: pd.DataFrame, edges: Sequence[float]) -> pd.DataFrame:
+    """Per sensor set and signal bin [edge_i, edge_i+1): the effects, the names right, the recall and its interval."""
+    effects = table[table.kind != "none"]
+    rows = []
+    for sensor_set, group in effects.groupby("sensors", sort=False):
+        bins = pd.cut(group.signal.replace(np.inf, np.finfo(float).max), list(edges), right=False)
+        for interval, members in group.groupby(bins, observed=False):
+            right = int((members.verdict == "right").sum())
+            rows.append({"sensors": sensor_set, "signal_from": interval.left, "signal_to": interval.right,
+                         "effects": len(members), "right": right, **_rate("recall", right, len(members))})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def rates_markdown(rates_table: pd.DataFrame, split: str, size: str) -> str:
+    """The rates as a Markdown table (the page the workflow writes, and the guide's first table)."""
+    lines = [
+        f"Drawn cases of the `{split}` seeds, size `{size}`: precision = names right / names given, recall = names "
+        "right / cases with an effect (Wilson 95 % intervals); not identifiable: the truth among the equivalents "
+        "listed / not; false alarms: nulls flagged or named.",
+        "",
+        "| sensors | cases (nulls) | precision | recall | named right / wrong | not identifiable (truth listed / not) "
+        "| unexplained / missed | false alarms / names | s a case (median) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for row in rates_table.to_dict(orient="records"):
+        lines.append(
+            f"| {row['sensors']} | {row['cases']} ({row['nulls']}) | {_percent(row, 'precision')} "
+            f"| {_percent(row, 'recall')} | {row['right']} / {row['wrong']} | {row['not identifiable, truth listed']} / "
+            f"{row['not identifiable, truth not listed']} | {row['unexplained']} / {row['missed']} "
+            f"| {row['false alarm']} / {row['false name']} | {row['median_seconds']:.0f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _percent(row: Mapping, name: str) -> str:
+    if not np.isfinite(row[name]):
+        return "—"
+    return f"{row[name]:.0%} [{row[f'{name}_low']:.0%}, {row[f'{name}_high']:.0%}]"

@@ -1,0 +1,149 @@
+"""The discovery benchmark: drawn effects, their truth and signal, the scorer, the seed ranges."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from costa.benchmark.score import rates, recall_by_signal, wilson
+from costa.benchmark.signal import signal
+from costa.compiled import CompiledModel
+from costa.config import ConfigError, check_consistency
+from costa.discover.cases.drawn import (
+    FAMILIES,
+    NULL_SHARE,
+    SPLITS,
+    DrawnEffect,
+    draw_effect,
+    drawn_case,
+    effect_case,
+    equivalent_names,
+    operating_points,
+    split_cases,
+)
+from costa.discover.cases.unshipped import find_case
+from costa.discover.summary import judged
+from costa.integrate import rk4_step
+from costa.physics import true_model
+
+
+def test_the_seed_ranges_never_meet_and_a_split_draws_inside_its_own():
+    assert not set(SPLITS["dev"]) & set(SPLITS["test"])
+    for split, seeds in SPLITS.items():
+        assert all(int(name.removeprefix("drawn")) in seeds for name in split_cases(split, 50))
+    with pytest.raises(ValueError, match="seeds hold"):
+        split_cases("dev", len(SPLITS["dev"]) + 1)
+
+
+def test_a_drawn_case_is_a_function_of_its_seed_and_found_by_name():
+    assert draw_effect(100_007) == draw_effect(100_007) != draw_effect(100_008)
+    assert find_case("drawn100007") is drawn_case("drawn100007")
+    assert find_case("drawn100007").accepted[0] == draw_effect(100_007).key
+
+
+def test_the_draws_cover_every_kind_and_family_with_the_stated_share_of_nulls():
+    effects = [draw_effect(seed) for seed in range(2000)]
+    nulls = sum(e.kind == "none" for e in effects)
+    assert abs(nulls / len(effects) - NULL_SHARE) < 0.03  # 2000 draws: the share's std is 0.008
+    drawn = [e for e in effects if e.kind != "none"]
+    assert {e.kind for e in drawn} == {"part", "term", "transfer", "property", "input"}
+    assert {e.family for e in drawn} == {family for family, _, _ in FAMILIES}
+    sizes = np.abs([e.size for e in drawn])
+    assert 0.001 <= sizes.min() and sizes.max() <= 0.1 and np.median(sizes) == pytest.approx(0.01, rel=0.2)
+
+
+def test_every_family_stays_within_its_bound_and_compiles_to_numpys_step():
+    """|f| <= 2 over the held range, and the compiled step (which traces the family) equals numpy's."""
+    x, u = operating_points(64)
+    full = true_model()
+    for family, count, _ in FAMILIES:
+        effect = DrawnEffect(seed=1, kind="property", target="bath_heat_capacity", family=family,
+                             variables=("x6", "c3")[:count], size=0.05, noise=0.01)  # fmt: skip
+        extreme = x.copy()
+        extreme[:, 5] = np.linspace(900, 1050, len(x))  # z(x6) far beyond [-2, 2]
+        from costa.physics import CellVariables
+
+        assert np.abs(effect.shape(CellVariables(extreme, u))).max() <= 2.0 + 1e-12, family
+        model = effect.true_model(full)
+        compiled = CompiledModel(model, 10.0, derivatives=False).step(x, u)
+        np.testing.assert_allclose(compiled, rk4_step(model.rhs, x, u, 10.0), rtol=1e-12, err_msg=family)
+
+
+def test_the_names_that_are_right_are_the_hypotheses_the_data_cannot_tell_apart():
+    """A flow out of a part that enters one balance only is that balance's missing flow (as the shipped
+    top heat loss accepts the electric power); an input's gain is not a flow proportional to it."""
+    full, (x, u) = true_model(), operating_points()
+
+    def names(kind, target):
+        effect = DrawnEffect(seed=0, kind=kind, target=target, family="constant", variables=(), size=0.01, noise=0.01)
+        return set(equivalent_names(effect, full, x, u))
+
+    assert {"term:bath_energy", "part:electric_power", "part:bath_ledge_heat"} <= names("term", "bath_energy")
+    assert names("term", "alumina_mass") == {"term:alumina_mass", "part:alumina_consumption"}
+    assert names("input", "u4") == {"input:u4"} and names("input", "u1") == {"input:u1"}
+    assert "property:wall_conductivity" not in names("property", "ledge_conductivity")
+
+
+def test_the_signal_is_zero_without_an_effect_and_grows_with_its_size(smoke_config):
+    effect = DrawnEffect(seed=100_003, kind="term", target="alf3_mass", family="linear", variables=("x6",),
+                         size=0.01, noise=0.01)  # fmt: skip
+    shown = {size: signal(smoke_config, effect_case(replace(effect, size=size)), "full") for size in (0.0, 0.01, 0.04)}
+    assert shown[0.0]["signal"] == 0.0 and shown[0.01]["samples"] > 0
+    assert 0 < shown[0.01]["signal"] < shown[0.04]["signal"]
+    assert shown[0.04]["signal"] == pytest.approx(4 * shown[0.01]["signal"], rel=0.05)  # small: about linear
+    null = effect_case(replace(effect, kind="none", target="", size=0.0))
+    assert signal(smoke_config, null, "full")["signal"] == 0.0
+
+
+def _findings(accepted, named=(), outcome="no effect", flagged=(), listed=()):
+    rounds = [{"correction": {"hypothesis": listed[0]} if listed else None,
+               "equivalent": [{"hypothesis": h} for h in listed[1:]]}]  # fmt: skip
+    return {"accepted": list(accepted), "named": list(named), "outcome": outcome, "flagged_channels": list(flagged),
+            "rounds": rounds}  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("findings", "verdict"),
+    [
+        (_findings(["term:x", "part:y"], ["part:y"], "found", ["x2"]), "right"),
+        (_findings(["term:x"], ["term:z", "term:x"], "found", ["x2"]), "wrong"),
+        (_findings(["term:x"], [], "not identifiable", ["x2"], ["term:z", "term:x"]), "not identifiable, truth listed"),
+        (_findings(["term:x"], [], "not identifiable", ["x2"], ["term:z"]), "not identifiable, truth not listed"),
+        (_findings(["term:x"], [], "unexplained", ["x2"]), "unexplained"),
+        (_findings(["term:x"]), "missed"),
+        (_findings([]), "quiet"),
+        (_findings([], [], "unexplained", ["x2"]), "false alarm"),
+        (_findings([], ["term:z"], "found", ["x2"]), "false name"),
+    ],
+)
+def test_each_answer_is_judged_against_the_truth(findings, verdict):
+    assert judged(findings) == verdict
+
+
+def test_wilson_intervals_have_their_known_values():
+    assert wilson(0, 10) == pytest.approx((0.0, 0.2775), abs=1e-4)
+    assert wilson(5, 10) == pytest.approx((0.2366, 0.7634), abs=1e-4)
+    assert all(np.isnan(wilson(0, 0)))
+
+
+def test_rates_count_names_right_over_names_given_and_over_effects():
+    verdicts = ["right"] * 6 + ["wrong"] * 2 + ["missed"] * 2 + ["quiet"] * 3 + ["false name"]
+    kinds = ["term"] * 10 + ["none"] * 4
+    table = pd.DataFrame({"sensors": "full", "verdict": verdicts, "kind": kinds, "seconds": 1.0,
+                          "signal": [1.0, 5, 20, 50, 200, 2000, 1, 5, 1, 2, 0, 0, 0, 0]})  # fmt: skip
+    row = rates(table).iloc[0]
+    assert (row.effects, row.nulls, row.right, row.wrong, row["false name"]) == (10, 4, 6, 2, 1)
+    assert row.precision == pytest.approx(6 / 9) and row.recall == pytest.approx(6 / 10)
+    assert row.false_alarm_rate == pytest.approx(1 / 4)
+    assert (row.precision_low, row.precision_high) == pytest.approx(wilson(6, 9))
+    curve = recall_by_signal(table, [0, 3, 10, 100, np.inf])
+    assert curve.effects.tolist() == [4, 2, 2, 2] and curve.right.tolist() == [1, 1, 2, 2]
+
+
+def test_a_benchmark_size_naming_an_unknown_sensor_set_is_refused(default_config):
+    config = {**default_config, "benchmark": {**default_config["benchmark"], "sizes": {"quick": {"lab": 3}}}}
+    with pytest.raises(ConfigError, match=r"benchmark.sizes.quick \['lab'\]"):
+        check_consistency(config)
