@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from costa.benchmark.score import rates, recall_by_signal, wilson
+from costa.benchmark.score import peer_rates, rates, recall_by_signal, wilson
 from costa.benchmark.signal import signal
 from costa.compiled import CompiledModel
 from costa.config import ConfigError, check_consistency
@@ -144,6 +144,20 @@ def test_rates_count_names_right_over_names_given_and_over_effects():
 
 
 def test_a_benchmark_size_naming_an_unknown_sensor_set_is_refused(default_config):
-    config = {**default_config, "benchmark": {**default_config["benchmark"], "sizes": {"quick": {"lab": 3}}}}
-    with pytest.raises(ConfigError, match=r"benchmark.sizes.quick \['lab'\]"):
+    config = {
+        **default_config,
+        "benchmark": {**default_config["benchmark"], "sizes": {"quick": {"sensors": {"lab": 3}}}},
+    }
+    with pytest.raises(ConfigError, match=r"benchmark.sizes.quick.sensors \['lab'\]"):
         check_consistency(config)
+
+
+def test_the_peers_are_scored_by_the_equation_they_change_most():
+    rows = pd.DataFrame({
+        "method": ["PySINDy"] * 4, "true_equations": ["x3", "x6 x7", "x2", "none"],
+        "most_changed": ["x3", "x7", "x6", "x1"], "equations_changed": ["x3", "x7 x1", "x6", "x1"],
+        "spurious_terms": [0, 1, 2, 1], "seconds": [10.0, 20.0, 30.0, 40.0],
+    })  # fmt: skip
+    row = peer_rates(rows).iloc[0]
+    assert (row.effects, row.most_changed_right, row.nulls, row.nulls_changed) == (3, pytest.approx(2 / 3), 1, 1)
+    assert row.spurious_terms_a_case == 1.0 and row.median_seconds == 25.0

@@ -38,17 +38,16 @@ def _check_benchmark(benchmark: Mapping[str, Any], sensor_sets: Mapping[str, Any
     sizes = benchmark["sizes"]
     if benchmark["size"] not in sizes:
         raise ConfigError(f"benchmark.size {benchmark['size']!r} is not one of benchmark.sizes {sorted(sizes)}")
-    for size, counts in sizes.items():
+    for size, chosen in sizes.items():
+        key, counts = f"benchmark.sizes.{size}", chosen["sensors"]
         unknown = sorted(set(counts) - set(sensor_sets))
         if unknown:
-            raise ConfigError(
-                f"benchmark.sizes.{size} {unknown} are not in discovery.sensor_sets {sorted(sensor_sets)}"
-            )
+            raise ConfigError(f"{key}.sensors {unknown} are not in discovery.sensor_sets {sorted(sensor_sets)}")
         too_many = {s: n for s, n in counts.items() if n > len(SPLITS[benchmark["split"]])}
         if too_many:
-            raise ConfigError(
-                f"benchmark.sizes.{size} {too_many}: more cases than the {benchmark['split']!r} seeds hold"
-            )
+            raise ConfigError(f"{key}.sensors {too_many}: more cases than the {benchmark['split']!r} seeds hold")
+        if chosen.get("peers", 0) > counts.get("full", 0):
+            raise ConfigError(f"{key}.peers: the peers run on the full set's cases, at most {counts.get('full', 0)}")
     if list(benchmark["signal_bins"]) != sorted(set(benchmark["signal_bins"])):
         raise ConfigError(f"benchmark.signal_bins {benchmark['signal_bins']} must increase")
 

@@ -28,6 +28,7 @@ rule collect_benchmark:
             out(f"benchmark/signal/{sensors}/{case}.json")
             for case, sensors in BENCHMARK_CASES
         ],
+        peers=expand(out("peers/{case}/rows.csv"), case=BENCHMARK_PEER_CASES),
         code=package_files("benchmark", "plots", "discover/summary.py"),
     output:
         summary=report(
@@ -37,6 +38,7 @@ rule collect_benchmark:
         ),
         rates=out("benchmark/rates.csv"),
         curve=out("benchmark/recall_by_signal.csv"),
+        peers=out("benchmark/peers.csv"),
         figure=report(
             out("benchmark/recall_by_signal.png"),
             category="Benchmark",

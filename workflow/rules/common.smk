@@ -177,7 +177,8 @@ def _peer_cases():
 PEER_CASES = _peer_cases()
 # the benchmark's drawn cases (costa.discover.cases.drawn): a name, drawn<seed>, says all of one
 DRAWN_CASE = r"drawn\d+"
-BENCHMARK_SETS = config["benchmark"]["sizes"][config["benchmark"]["size"]]
+BENCHMARK_SIZE = config["benchmark"]["sizes"][config["benchmark"]["size"]]
+BENCHMARK_SETS = BENCHMARK_SIZE["sensors"]
 
 
 def _benchmark_cases():
@@ -193,6 +194,10 @@ def _benchmark_cases():
 
 
 BENCHMARK_CASES = _benchmark_cases()
+# the full set's first cases, which the peers also run on
+BENCHMARK_PEER_CASES = [case for case, sensors in BENCHMARK_CASES if sensors == "full"][
+    : BENCHMARK_SIZE.get("peers", 0)
+]
 # the cases whose data are simulated: the configured ones and those the peers stage compares on
 SIMULATED_CASES = SHIPPED_CASES + [c for c in PEER_CASES if c not in SHIPPED_CASES]
 PEERS_CODE = DISCOVERY_CODE + TRAINING_CODE + package_files("peers")

@@ -17,7 +17,7 @@ rule peers_case:
     benchmark:
         out("peers/{case}/benchmarks/peers.tsv")
     wildcard_constraints:
-        case="|".join(PEER_CASES) or "^$",
+        case="|".join([*PEER_CASES, DRAWN_CASE]),
     conda:
         ENV
     threads: 1

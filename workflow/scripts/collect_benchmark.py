@@ -5,7 +5,7 @@ from pathlib import Path
 import pandas as pd
 
 from costa import runtime
-from costa.benchmark.score import case_table, rates, rates_markdown, recall_by_signal
+from costa.benchmark.score import case_table, peer_rates, peers_markdown, rates, rates_markdown, recall_by_signal
 from costa.plots import plot_recall_by_signal, save
 
 runtime.configure(snakemake)
@@ -27,6 +27,12 @@ table.to_csv(snakemake.output.rates, index=False)
 curve = recall_by_signal(cases, params.bins)
 curve.to_csv(snakemake.output.curve, index=False)
 save(plot_recall_by_signal(curve, cases), snakemake.output.figure)
-Path(snakemake.output.page).write_text(
-    "# The discovery benchmark\n\n" + rates_markdown(table, params.split, params.size)
-)
+page = "# The discovery benchmark\n\n" + rates_markdown(table, params.split, params.size)
+if snakemake.input.peers:
+    peers = peer_rates(pd.concat(map(pd.read_csv, snakemake.input.peers), ignore_index=True))
+    page += f"\n## Against its peers, on the full set's first {len(snakemake.input.peers)} cases\n\n"
+    page += peers_markdown(peers)
+else:
+    peers = pd.DataFrame(columns=["method"])
+peers.to_csv(snakemake.output.peers, index=False)
+Path(snakemake.output.page).write_text(page)

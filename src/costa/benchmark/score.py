@@ -19,7 +19,7 @@ from scipy.stats import binomtest
 from ..discover.cases.drawn import DRAWN_NAME, draw_effect
 from ..discover.summary import judged
 
-__all__ = ["case_table", "rates", "rates_markdown", "recall_by_signal", "wilson"]
+__all__ = ["case_table", "peer_rates", "peers_markdown", "rates", "rates_markdown", "recall_by_signal", "wilson"]
 
 
 def wilson(successes: int, trials: int, level: float = 0.95) -> tuple[float, float]:
@@ -110,6 +110,39 @@ def rates_markdown(rates_table: pd.DataFrame, split: str, size: str) -> str:
             f"| {_percent(row, 'recall')} | {row['right']} / {row['wrong']} | {row['not identifiable, truth listed']} / "
             f"{row['not identifiable, truth not listed']} | {row['unexplained']} / {row['missed']} "
             f"| {row['false alarm']} / {row['false name']} | {row['median_seconds']:.0f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def peer_rates(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per method on the full set's drawn cases (the peers' rows, :mod:`costa.peers`): the share of cases with an
+    effect where the equation it changes most is one the effect changes, with its interval; its spurious terms
+    (in an equation the effect leaves alone) a case; and the nulls in which it changed any equation."""
+    result = []
+    for method, group in rows.groupby("method", sort=False):
+        effects, nulls = group[group.true_equations != "none"], group[group.true_equations == "none"]
+        right = sum(m in t.split() for m, t in zip(effects.most_changed, effects.true_equations, strict=True))
+        result.append({
+            "method": method, "effects": len(effects), **_rate("most_changed_right", right, len(effects)),
+            "spurious_terms_a_case": float(group.spurious_terms.mean()),
+            "nulls": len(nulls), "nulls_changed": int((nulls.equations_changed != "none").sum()),
+            "median_seconds": float(group.seconds.median()),
+        })  # fmt: skip
+    return pd.DataFrame(result)
+
+
+def peers_markdown(table: pd.DataFrame) -> str:
+    """The peers' rates as a Markdown table."""
+    lines = [
+        "| method | the equation it changes most is the effect's | spurious terms a case | nulls changed "
+        "| s a case (median) |",
+        "|---|---|---|---|---|",
+    ]
+    for row in table.to_dict(orient="records"):
+        lines.append(
+            f"| {row['method']} | {_percent(row, 'most_changed_right')} ({row['effects']} effects) "
+            f"| {row['spurious_terms_a_case']:.1f} | {row['nulls_changed']} of {row['nulls']} "
+            f"| {row['median_seconds']:.0f} |"
         )
     return "\n".join(lines) + "\n"
 

@@ -1,8 +1,8 @@
 """One row per case and method, scored against the case's truth alike for every method.
 
 Columns (``COLUMNS``): the effect it names ("—" for a method that cannot name one),
-the equations it changes (those whose rate differs from the starting model's) and
-those the effect changes, whether the effect's variables appear in its terms, the
+the equations it changes (those whose rate differs from the starting model's), the one it
+changes most (relative to that rate's spread) and those the effect changes, whether the effect's variables appear in its terms, the
 relative error of each true coefficient that has a counterpart in the method's own
 representation, the spurious terms (in an equation the effect leaves alone, or
 reading a variable the effect and its flow forms do not), the long-window error
@@ -21,13 +21,14 @@ import pandas as pd
 from ..discover.cases.truth import Truth, changed_equations, correction_variables
 from ..discover.core.hypotheses import candidate_hypotheses
 from ..physics import BALANCES, CellModel
+from ..variables import STATES
 from .sparse import SparseFit
 
 __all__ = ["COLUMNS", "DASH", "Answer", "ours_answer", "peer_answer", "score"]
 
 DASH = "—"
 COLUMNS = [
-    "case", "method", "named", "equations_changed", "true_equations", "right_variables", "coefficient_errors",
+    "case", "method", "named", "equations_changed", "most_changed", "true_equations", "right_variables", "coefficient_errors",
     "max_coefficient_error", "spurious_terms", "terms", "error_before", "error_after", "noise_floor",
     "gap_closed_above_floor", "blowups", "rollouts", "seconds", "correction",
 ]  # fmt: skip
@@ -93,6 +94,15 @@ def _coefficients(answer: Answer, truth: Truth) -> tuple[str, float]:
     return text or DASH, worst
 
 
+def most_changed_equation(model: CellModel, start: CellModel, x: np.ndarray, u: np.ndarray) -> str:
+    """The state whose rate differs most between two models on samples x, u: the rms difference over the
+    starting model's std of that rate ("none" where no rate differs)."""
+    with np.errstate(all="ignore"):
+        a, b = model.rhs(x, u).reshape(-1, 8), start.rhs(x, u).reshape(-1, 8)
+    change = np.sqrt(np.nanmean((a - b) ** 2, axis=0)) / (np.nanstd(b, axis=0) + 1e-300)
+    return STATES[int(np.nanargmax(change))] if np.nanmax(change) > 0 else "none"
+
+
 def score(
     case: str,
     method: str,
@@ -136,6 +146,7 @@ def score(
         if answer["named"]
         else (DASH if answer["named"] is None else "nothing"),
         "equations_changed": " ".join(changed) or "none",
+        "most_changed": most_changed_equation(answer["model"], start, x, u),
         "true_equations": " ".join(true_equations) or "none",
         "right_variables": right,
         "coefficient_errors": errors,
