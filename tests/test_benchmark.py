@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import REPOSITORY, snakemake
 
 from costa.benchmark.score import peer_rates, rates, recall_by_signal, wilson
 from costa.benchmark.signal import signal
@@ -161,3 +162,29 @@ def test_the_peers_are_scored_by_the_equation_they_change_most():
     row = peer_rates(rows).iloc[0]
     assert (row.effects, row.most_changed_right, row.nulls, row.nulls_changed) == (3, pytest.approx(2 / 3), 1, 1)
     assert row.spurious_terms_a_case == 1.0 and row.median_seconds == 25.0
+
+
+@pytest.mark.integration
+def test_the_benchmark_runs_end_to_end_at_the_smoke_sizes(tmp_path):
+    """Three drawn cases of the dev seeds through the full-state route and one through the peers: one row each,
+    judged, with a finite signal; the rates, the curve, the figure and the page."""
+    tiny = tmp_path / "tiny_benchmark.yaml"
+    tiny.write_text("benchmark: {split: dev, size: tiny, sizes: {tiny: {sensors: {full: 3}, peers: 1}}}\n")
+    smoke = str(REPOSITORY / "config" / "smoke.yaml")
+    snakemake(tmp_path, "results/smoke/benchmark/summary.csv", "--configfile", smoke, str(tiny))
+    results = tmp_path / "results/smoke/benchmark"
+    cases = pd.read_csv(results / "summary.csv")
+    assert cases.case.tolist() == ["drawn0", "drawn1", "drawn2"] and (cases.sensors == "full").all()
+    assert cases.verdict.isin(["right", "wrong", "unexplained", "missed", "quiet", "false alarm", "false name"]).all()
+    assert (cases.signal >= 0).all() and (cases.seconds > 0).all()
+    assert (cases.signal > 0).tolist() == (cases.kind != "none").tolist()
+    table = pd.read_csv(results / "rates.csv")
+    assert (
+        table.cases.tolist() == [3]
+        and table[["right", "wrong", "unexplained", "missed"]].sum(axis=1).item() == 3 - table.nulls.item()
+    )
+    peers = pd.read_csv(results / "peers.csv")
+    assert set(peers.method) == {"this workflow", "PySINDy", "UDE (CoSTA + PySINDy)"}
+    page = (results / "benchmark.md").read_text()
+    assert "| full | 3 (" in page and "## Against its peers" in page
+    assert (results / "recall_by_signal.png").stat().st_size > 10_000

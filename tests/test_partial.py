@@ -22,7 +22,7 @@ from costa.discover.sparse.filter.search import discover_round
 from costa.discover.sparse.innovations import innovation_tests
 from costa.discover.sparse.observations import Observations, channel_noise
 from costa.discover.sparse.observed import estimate_states
-from costa.discover.sparse.pipeline import PartialResult, observations
+from costa.discover.sparse.pipeline import SparseResult, observations
 from costa.discover.sparse.rounds import fit_outcome
 from costa.observe import observe
 from costa.physics import true_model
@@ -76,7 +76,7 @@ def test_paper_liquidus_is_named_from_partial_measurements(default_config):
     assert {"x1", "x2", "x7"}.isdisjoint(train.columns) and {"U_cell", "c2", "c3"} <= set(train.columns)
     start = starting_model(config, "ablated")
     result = run_discovery(config, train, held_out, start, "paper_liquidus/partial", "test")
-    assert isinstance(result, PartialResult)
+    assert isinstance(result, SparseResult)
     first = result.rounds[0]
     assert {"x6", "U_cell"} <= set(first.flagged) and "x5" not in first.flagged
     assert first.named is not None and first.named.key == "part:liquidus_temperature"
@@ -502,7 +502,7 @@ def test_a_correction_that_leaves_a_small_form_error_is_named_with_its_form_inco
     and never where a rival is as good."""
     from costa.discover.sparse.filter.search import _small_form_error
     from costa.discover.sparse.innovations import ChannelTest
-    from costa.discover.sparse.rounds import PartialRound
+    from costa.discover.sparse.rounds import SparseRound
 
     settings = DiscoverySettings()
 
@@ -510,7 +510,7 @@ def test_a_correction_that_leaves_a_small_form_error_is_named_with_its_form_inco
         flagged = [ChannelTest("U_cell", 1000, chi2, 9.0, 0.1, 0.0, 0.0, True)]
         chosen = SimpleNamespace(hypothesis="property:current_efficiency", explained=explained, tests_after=flagged)
         tolerated = _small_form_error(chosen, settings)
-        return PartialRound(None, [], [], chosen, [], identifiable, None, "", form_tolerated=tolerated)
+        return SparseRound(None, [], [], chosen, [], identifiable, None, "", form_tolerated=tolerated)
 
     assert round_(0.97, 1.3).named == "property:current_efficiency" and round_(0.97, 1.3).form_incomplete
     assert round_(0.6, 1.3).named is None and not round_(0.6, 1.3).form_incomplete
@@ -586,7 +586,7 @@ def test_each_round_tests_its_model_from_the_start_that_model_places_the_cell_at
         return SimpleNamespace(named=chosen.hypothesis, chosen=chosen, corrected=corrected, form_incomplete=False)
 
     monkeypatch.setattr(search, "discover_round", one_round)
-    search.discover_partial("m0", "first", DiscoverySettings(max_rounds=3))
+    search.discover_sparse("m0", "first", DiscoverySettings(max_rounds=3))
     assert seen == [("m0", "first"), ("m1", "searched under m1"), ("m2", "searched under m2")]
 
 

@@ -13,8 +13,8 @@ from .core.fitted_terms import KEEP_LEVEL
 from .core.naming import removal
 from .full_state.pipeline import DiscoveryResult
 from .full_state.search import Candidate, Round
-from .sparse.pipeline import PartialResult
-from .sparse.rounds import PartialRound, fit_outcome
+from .sparse.pipeline import SparseResult
+from .sparse.rounds import SparseRound, fit_outcome
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)
@@ -92,7 +92,7 @@ def _coefficients(features, coefficients, intervals_by_level, inclusion) -> list
     ]
 
 
-def _partial_candidate(c, model) -> dict[str, Any]:
+def _sparse_candidate(c, model) -> dict[str, Any]:
     """A partial round's candidate: as on full data, plus the screen's likelihood gain that
     shortlisted it (a correction that could not be scored has no BIC gain), and the trajectories
     whose filter it holds where the uncorrected model's diverged (gains count only the others)."""
@@ -104,7 +104,7 @@ def _partial_candidate(c, model) -> dict[str, Any]:
     }
 
 
-def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
+def _sparse_round(index: int, r: SparseRound) -> dict[str, Any]:
     """A round on partial measurements: channel tests instead of equation tests."""
     found: dict[str, Any] = {
         "round": index,
@@ -153,13 +153,13 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
         "misfit_after_best": round(r.dispersion, 3),
         "named": None,
         "correction": None,
-        "equivalent": [_partial_candidate(c, r.model) for c in r.equivalent],
+        "equivalent": [_sparse_candidate(c, r.model) for c in r.equivalent],
         "alternatives": [
-            _partial_candidate(c, r.model) for c in r.ranking if c is not r.chosen and c not in r.equivalent
+            _sparse_candidate(c, r.model) for c in r.ranking if c is not r.chosen and c not in r.equivalent
         ][:5],
     }
     if r.chosen is not None:
-        correction = _partial_candidate(r.chosen, r.model)
+        correction = _sparse_candidate(r.chosen, r.model)
         correction["kept_if"] = KEPT_IF[r.route]
         intervals = {level: r.chosen.intervals(level) for level in LEVELS}
         correction["coefficients"] = _coefficients(
@@ -178,7 +178,7 @@ def _partial_round(index: int, r: PartialRound) -> dict[str, Any]:
     return found
 
 
-#: how a round on partial measurements was decided (:attr:`.sparse.rounds.PartialRound.route`)
+#: how a round on partial measurements was decided (:attr:`.sparse.rounds.SparseRound.route`)
 DECIDED_BY = {
     "filter": "each hypothesis' free delta smoothed by the filter on every cell, its closed form regressed on it and "
     "refined on the measured channels, the corrected models compared by the BIC gain of their filter's likelihood",
@@ -218,7 +218,7 @@ def _unlogged(u: str, value: float) -> str:
 
 
 def findings(
-    result: DiscoveryResult | PartialResult,
+    result: DiscoveryResult | SparseResult,
     name: str,
     start,
     meta: Mapping[str, Any],
@@ -232,8 +232,8 @@ def findings(
     recorded when given.  A run on partial measurements tests channels, not equations,
     and may find an explanation it cannot name (``identifiable`` False).
     """
-    partial = isinstance(result, PartialResult)
-    rounds = [(_partial_round if partial else _round)(i + 1, r) for i, r in enumerate(result.rounds)]
+    partial = isinstance(result, SparseResult)
+    rounds = [(_sparse_round if partial else _round)(i + 1, r) for i, r in enumerate(result.rounds)]
     named = [r["named"]["hypothesis"] for r in rounds if r["named"]]
     unidentified = [r for r in rounds if partial and not r["identifiable"] and r["correction"]]
     first = rounds[0]
@@ -339,7 +339,7 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
         lines += [f"- {line}" for line in _channel_lines(f["channels"])]
         lines.append("")
     for r in f["rounds"]:
-        lines += _partial_round_lines(r) if "channels_tested" in r else _round_lines(r)
+        lines += _sparse_round_lines(r) if "channels_tested" in r else _round_lines(r)
     g = f["gap"]
     lines += [
         "## Gap on held-out trajectories",
@@ -452,7 +452,7 @@ def _coefficient_lines(n: Mapping[str, Any]) -> list[str]:
     return lines + ["", f"A term is kept if {n['kept_if']}."]
 
 
-def _partial_round_lines(r: Mapping[str, Any]) -> list[str]:
+def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
     """A round on partial measurements: the channels' innovation tests, the verdict, the correction
     (named only when the measurements can tell it from the other explanations)."""
     lines = [

@@ -23,7 +23,7 @@ from ..variables import INPUTS
 from .core.library import constant_inputs
 from .core.settings import DiscoverySettings
 from .full_state.pipeline import DiscoveryResult, run_full_state_discovery
-from .sparse.pipeline import PartialResult, run_partial_discovery
+from .sparse.pipeline import SparseResult, run_sparse_discovery
 
 __all__ = [
     "gap_settings",
@@ -129,7 +129,7 @@ def run_discovery(
     source: str,
     declared_noise: Mapping[str, float] | None = None,
     first_round: tuple[str | Path, Sequence[str | Path]] | None = None,
-) -> DiscoveryResult | PartialResult:
+) -> DiscoveryResult | SparseResult:
     """Discover on ``train``, then measure the gap of the starting and corrected models on ``held_out``.
 
     Tables with every state at every step take the weak-form route (:mod:`.full_state`); any
@@ -142,7 +142,7 @@ def run_discovery(
     floor_rng = seeds.numpy_generator(config["seed"], 0, f"discovery/{name}/floor")
     if incomplete_states(train) or incomplete_states(held_out):
         evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
-        result = run_partial_discovery(
+        result = run_sparse_discovery(
             train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng, first_round,
             restart_s=gap_restart_s(config, name),
         )  # fmt: skip

@@ -23,11 +23,11 @@ from ...data import TrajectoryDataError, measured_trajectories
 from ...metrics import EvaluationSettings
 from ...physics import CellModel
 from ..core.settings import DiscoverySettings
-from .filter.search import discover_partial, fit_share, screen_round
+from .filter.search import discover_sparse, fit_share, screen_round
 from .gap import measured_gap, measured_noise_floor
 from .observations import Observations, channel_noise
 from .observed import START_SEARCH_S, start_is_searched
-from .rounds import PartialRound
+from .rounds import SparseRound
 from .shooting.round import decide_by_shooting, fit_by_shooting, screen_by_shooting, uses_shooting
 from .split import (
     read_fits,
@@ -40,14 +40,14 @@ from .split import (
     write_shot_screen,
 )
 
-__all__ = ["PartialResult", "fit_first_round", "observations", "run_partial_discovery", "screen_first_round"]
+__all__ = ["SparseResult", "fit_first_round", "observations", "run_sparse_discovery", "screen_first_round"]
 
 
 @dataclass
-class PartialResult:
+class SparseResult:
     """What a run on partial measurements found; ``noise`` (C,) per measured channel."""
 
-    rounds: list[PartialRound]
+    rounds: list[SparseRound]
     channels: tuple[str, ...]
     noise: np.ndarray
     corrected: CellModel
@@ -152,7 +152,7 @@ def fit_first_round(
 
 def _shooting_round(
     start: CellModel, obs: Observations, settings: DiscoverySettings, first_round: tuple | None
-) -> PartialRound:
+) -> SparseRound:
     """The round :mod:`.shooting.round` decides, from the jobs' records where given."""
     if first_round is None:
         screen = screen_by_shooting(start, obs.with_start(start), settings)
@@ -162,7 +162,7 @@ def _shooting_round(
     return decide_by_shooting(start, screen, fits, obs, settings)
 
 
-def run_partial_discovery(
+def run_sparse_discovery(
     train: pd.DataFrame,
     held_out: pd.DataFrame,
     start: CellModel,
@@ -173,7 +173,7 @@ def run_partial_discovery(
     rng: np.random.Generator,
     first_round: tuple[str | Path, Sequence[str | Path]] | None = None,
     restart_s: float | None = None,
-) -> PartialResult:
+) -> SparseResult:
     """Discover on ``train``; the gap of the starting and corrected models on ``held_out``.
 
     ``evaluation`` gives the gap's windows; the state a rollout starts from is estimated
@@ -194,11 +194,11 @@ def run_partial_discovery(
         rounds = [_shooting_round(start, obs, settings, first_round)]
     elif first_round is None:
         obs = obs.with_start(start)
-        rounds = discover_partial(start, obs, settings)
+        rounds = discover_sparse(start, obs, settings)
     else:
         screen, searched = read_screen(first_round[0], start)
         obs = replace(obs, start=searched)
-        rounds = discover_partial(start, obs, settings, (screen, read_fits(first_round[1], start, obs)))
+        rounds = discover_sparse(start, obs, settings, (screen, read_fits(first_round[1], start, obs)))
     seconds = time.perf_counter() - started
     corrected = next((r.corrected for r in reversed(rounds) if r.corrected is not None), start)
     scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)
@@ -206,7 +206,7 @@ def run_partial_discovery(
     restart = round(restart_s / held.dt) if restart_s else None
     gap, per_channel = measured_gap(models, held, scale, evaluation, start_steps, restart)
     floor = measured_noise_floor(corrected, held, scale, evaluation, start_steps, rng, restart)
-    return PartialResult(
+    return SparseResult(
         rounds,
         obs.channels,
         obs.noise,

@@ -2,7 +2,7 @@
 
 Both routes of the sparse search start from the uncorrected model's channel tests
 (:func:`channel_tests`: its filter's innovations on every cell) and end in a
-:class:`PartialRound` of :class:`PartialCandidate` s, which the findings, the summary table,
+:class:`SparseRound` of :class:`SparseCandidate` s, which the findings, the summary table,
 the report and "measure next" read alike: the filter route (:mod:`.filter`) scores each
 hypothesis by the likelihood its random-walk delta gains, the shooting route
 (:mod:`.shooting`) fits closed forms by multiple shooting.
@@ -27,7 +27,7 @@ from .observations import Observations
 from .observed import estimate_states
 
 __all__ = [
-    "BudgetComparison", "HypothesisScore", "PartialCandidate", "PartialRound", "channel_tests", "fit_outcome",
+    "BudgetComparison", "HypothesisScore", "SparseCandidate", "SparseRound", "channel_tests", "fit_outcome",
 ]  # fmt: skip
 
 
@@ -53,7 +53,7 @@ class HypothesisScore:
 
 
 @dataclass
-class PartialCandidate(FittedTerms):
+class SparseCandidate(FittedTerms):
     """A hypothesis with its smoothed delta, the closed form fitted to it and the corrected model's
     score: ``bic_gain`` over the uncorrected model on the measured channels, ``explained`` the share
     of the flagged channels' excess it removes; ``placed``: the observations with the start the
@@ -98,7 +98,7 @@ class BudgetComparison:
 
 
 @dataclass
-class PartialRound:
+class SparseRound:
     """What one round on partial measurements found.
 
     ``ranking``: the fitted candidates, best BIC gain first; ``equivalent``: those as good as
@@ -110,9 +110,9 @@ class PartialRound:
 
     model: CellModel
     tests: list[ChannelTest]
-    ranking: list[PartialCandidate]
-    chosen: PartialCandidate | None
-    equivalent: list[PartialCandidate]
+    ranking: list[SparseCandidate]
+    chosen: SparseCandidate | None
+    equivalent: list[SparseCandidate]
     identifiable: bool
     separated_by: str | None
     verdict: str

@@ -24,7 +24,7 @@ from ..core.hypotheses import candidate_hypotheses
 from .filter.search import Screen
 from .innovations import ChannelTest
 from .observations import Observations
-from .rounds import HypothesisScore, PartialCandidate
+from .rounds import HypothesisScore, SparseCandidate
 from .shooting.fit import ShootingFit
 from .shooting.round import ShotFit, ShotScreen
 from .shooting.screen import ScreenedForm
@@ -68,7 +68,7 @@ def read_screen(path: str | Path, model: CellModel) -> tuple[Screen, Any]:
     return Screen(**record), start
 
 
-def write_fits(fits: Sequence[PartialCandidate], indices: Sequence[int], path: str | Path) -> None:
+def write_fits(fits: Sequence[SparseCandidate], indices: Sequence[int], path: str | Path) -> None:
     """Fitted candidates (the screen's ``indices``) as numbers: the corrected model and the
     observations it was placed in are rebuilt on reading."""
     records = []
@@ -84,7 +84,7 @@ def write_fits(fits: Sequence[PartialCandidate], indices: Sequence[int], path: s
     Path(path).write_bytes(pickle.dumps(records))
 
 
-def read_fits(paths: Sequence[str | Path], model: CellModel, obs: Observations) -> list[PartialCandidate]:
+def read_fits(paths: Sequence[str | Path], model: CellModel, obs: Observations) -> list[SparseCandidate]:
     """Every fitted candidate of the fit jobs' records, in the screen's order, rebuilt on ``model``
     and the observations ``obs`` (each placed at the start it searched itself)."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
@@ -94,7 +94,7 @@ def read_fits(paths: Sequence[str | Path], model: CellModel, obs: Observations) 
         h = score.hypothesis
         library = {f.name: f for f in h.features(False)}
         features = [library[name] for name in fields["features"]]
-        candidate = PartialCandidate(**(fields | {"score": score, "features": features, "placed": None}))
+        candidate = SparseCandidate(**(fields | {"score": score, "features": features, "placed": None}))
         if candidate.log_likelihood is not None:  # fitted and tested: from the start it searched itself
             candidate.placed = dataclasses.replace(obs, start=fields["placed"])
             candidate.corrected = h.corrected(model, features, candidate.coefficients)

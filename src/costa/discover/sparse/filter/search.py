@@ -61,7 +61,7 @@ from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest
 from ..measure_next import Recommendation, measure_next
 from ..observations import Observations
-from ..rounds import BudgetComparison, HypothesisScore, PartialCandidate, PartialRound, channel_tests, fit_outcome
+from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests, fit_outcome
 from .likelihood import (
     likelihood_gains,
     mostly_lost,
@@ -74,7 +74,7 @@ __all__ = [
     "Screen",
     "at_budget",
     "decide_round",
-    "discover_partial",
+    "discover_sparse",
     "distinct_physics",
     "fit_share",
     "screen_round",
@@ -93,7 +93,7 @@ def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
     return sum(max(by_name[c].chi2_per_dof - 1, 0.0) + by_name[c].bias ** 2 for c in channels if c in by_name)
 
 
-def _dispersion(ranking: Sequence[PartialCandidate]) -> float:
+def _dispersion(ranking: Sequence[SparseCandidate]) -> float:
     """The best correction's remaining misfit: the mean square of its standardised innovations over
     every measured sample (at least 1).  Where even the best leaves the channels far from white
     noise, the likelihood is misspecified, and differences of BIC shrink by this factor before they
@@ -251,7 +251,7 @@ def _fit(
     seed,
     rich: bool,
     tests: list[ChannelTest],
-) -> PartialCandidate:
+) -> SparseCandidate:
     """Smooth one hypothesis on every trajectory, fit its closed form, refine its coefficients on the
     measured channels, test the corrected model's innovations and keep its likelihood (scored
     against the other candidates by :func:`_score`).  Every candidate of a round resamples with
@@ -261,13 +261,13 @@ def _fit(
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
     if mostly_lost(np.isfinite(smoothed.mean).all((1, 2))):
         log.info("%s: its filter is lost on half the trajectories or more, not fitted", score.hypothesis.key)
-        return PartialCandidate(score, smoothed.mean[..., :8], [], np.zeros(0), np.zeros((settings.bootstrap, 0)), {})
+        return SparseCandidate(score, smoothed.mean[..., :8], [], np.zeros(0), np.zeros((settings.bootstrap, 0)), {})
     rng = np.random.default_rng(seed)
     *fit, inclusion = _closed_form(score.hypothesis, model, smoothed, obs, settings, rng, rich)
     features, coefficients, _ = fit
     placed = obs.searched_again(score.hypothesis.corrected(model, features, coefficients)) if features else obs
     features, coefficients, samples = _refined(score.hypothesis, model, placed, fit, smoothed, rich, rng)
-    candidate = PartialCandidate(score, smoothed.mean[..., :8], features, coefficients, samples, inclusion)
+    candidate = SparseCandidate(score, smoothed.mean[..., :8], features, coefficients, samples, inclusion)
     if not features:
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
@@ -283,7 +283,7 @@ def _fit(
     return candidate
 
 
-def _cut(candidate: PartialCandidate, budget: int, model: CellModel, settings: DiscoverySettings) -> np.ndarray:
+def _cut(candidate: SparseCandidate, budget: int, model: CellModel, settings: DiscoverySettings) -> np.ndarray:
     """Per-trajectory log-likelihood (n,) of ``candidate``'s closed form cut to its ``budget``
     strongest terms (largest |coefficient| over its posterior spread), refined again on the
     measured channels and scored from the start the cut model searches itself."""
@@ -301,8 +301,8 @@ def _cut(candidate: PartialCandidate, budget: int, model: CellModel, settings: D
 
 
 def at_budget(
-    chosen: PartialCandidate,
-    rivals: Sequence[PartialCandidate],
+    chosen: SparseCandidate,
+    rivals: Sequence[SparseCandidate],
     model: CellModel,
     settings: DiscoverySettings,
     base_likelihood: np.ndarray,
@@ -329,7 +329,7 @@ def at_budget(
     return comparisons
 
 
-def _score(candidates: Sequence[PartialCandidate], base_likelihood: np.ndarray, samples: int) -> None:
+def _score(candidates: Sequence[SparseCandidate], base_likelihood: np.ndarray, samples: int) -> None:
     """Each fitted candidate's BIC gain over the uncorrected model on ``samples`` measured values, and
     the trajectories it holds where the uncorrected filter diverged (:func:`.likelihood.likelihood_gains`)."""
     fitted = [c for c in candidates if c.log_likelihood is not None]
@@ -384,7 +384,7 @@ def screen_round(
 
 def fit_share(
     screen: Screen, model: CellModel, obs: Observations, settings: DiscoverySettings, rich: bool, share: slice
-) -> list[PartialCandidate]:
+) -> list[SparseCandidate]:
     """The screen's candidates in ``share`` (e.g. ``slice(j, None, jobs)``: job j of ``jobs``), each fitted."""
     return [_fit(s, model, obs, settings, screen.seed, rich, screen.tests) for s in screen.candidates[share]]
 
@@ -396,7 +396,7 @@ def discover_round(
     rng: np.random.Generator,
     rich: bool = False,
     named: Sequence[str] = (),
-) -> PartialRound:
+) -> SparseRound:
     """One round on the current model (see the module docstring); ``named``: what earlier rounds named."""
     screen = screen_round(model, obs, settings, rng, named)
     return decide_round(model, obs, settings, screen, fit_share(screen, model, obs, settings, rich, slice(None)), named)
@@ -407,14 +407,14 @@ def decide_round(
     obs: Observations,
     settings: DiscoverySettings,
     screen: Screen,
-    ranking: list[PartialCandidate],
+    ranking: list[SparseCandidate],
     named: Sequence[str] = (),
-) -> PartialRound:
+) -> SparseRound:
     """Score the fitted candidates (``ranking``, in the screen's order) and decide what the round names
     (steps 3-6 of the module docstring)."""
     tests, flagged = screen.tests, screen.flagged
     if not flagged:
-        return PartialRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
+        return SparseRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
     _score(ranking, screen.log_likelihood, int(np.isfinite(obs.y).sum()))
     ranking = sorted(ranking, key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)
@@ -432,7 +432,7 @@ def decide_round(
             outcome = fit_outcome(bool(top.features), top.explained, bool(np.isfinite(top.bic_gain)))
             verdict += f": the best, {top.hypothesis.key}, {outcome}"
         fitted = [c for c in ranking if c.corrected is not None][:3]
-        return PartialRound(
+        return SparseRound(
             model, tests, ranking, None, [], True, None, verdict, dispersion, measure_next=_next(fitted, obs)
         )
     x = screen.states  # every 16th step
@@ -483,13 +483,13 @@ def decide_round(
             )
     effect = removal(chosen.explained, "the flagged channels' excess")
     verdict = f"{what}; the correction {effect}"
-    return PartialRound(
+    return SparseRound(
         model, tests, ranking, chosen, equivalent, not undecided, separated, verdict, dispersion, budget,
         recommended, tolerated,
     )  # fmt: skip
 
 
-def _small_form_error(chosen: PartialCandidate, settings: DiscoverySettings) -> bool:
+def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
     """Whether what the chosen correction leaves is a small error of its closed form: it removes the
     ``form_incomplete`` share of the flagged channels' excess, and no channel is left more than
     ``form_excess`` noise variances beyond white unit noise (chi2/dof - 1 + bias^2).  Hundreds of
@@ -499,13 +499,13 @@ def _small_form_error(chosen: PartialCandidate, settings: DiscoverySettings) -> 
     return chosen.explained >= settings.form_incomplete and left <= settings.form_excess
 
 
-def _next(candidates: Sequence[PartialCandidate], obs: Observations) -> list[Recommendation]:
+def _next(candidates: Sequence[SparseCandidate], obs: Observations) -> list[Recommendation]:
     """What to measure to tell the first candidate from the others (:func:`..measure_next.measure_next`):
     each seen through its corrected model, along the states its smoothed delta implies."""
     return measure_next([(c.corrected, c.states) for c in candidates], obs)
 
 
-def _budget_words(chosen: PartialCandidate, b: BudgetComparison) -> str:
+def _budget_words(chosen: SparseCandidate, b: BudgetComparison) -> str:
     """One budget comparison in words."""
     return (
         f"cut to {b.terms} term{'s' * (b.terms > 1)}, {chosen.hypothesis.key} gains {b.chosen_gain:.0f} BIC "
@@ -513,12 +513,12 @@ def _budget_words(chosen: PartialCandidate, b: BudgetComparison) -> str:
     )
 
 
-def discover_partial(
+def discover_sparse(
     model: CellModel,
     obs: Observations,
     settings: DiscoverySettings,
-    first_round: tuple[Screen, list[PartialCandidate]] | None = None,
-) -> list[PartialRound]:
+    first_round: tuple[Screen, list[SparseCandidate]] | None = None,
+) -> list[SparseRound]:
     """Rounds until no channel disagrees, nothing explains it, a correction explains too little,
     the measurements cannot tell the explanations apart, the best correction leaves a channel
     disagreeing (in both cases a further round would explain what is left of a guess), or
@@ -528,7 +528,7 @@ def discover_partial(
     effect that is not there.  ``first_round``: the first round's screen and fits, made by
     separate jobs (:mod:`..split`); the rounds are the same as without."""
     rng = np.random.default_rng(settings.seed)
-    rounds: list[PartialRound] = []
+    rounds: list[SparseRound] = []
     current, placed = model, obs
     for index in range(settings.max_rounds):
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]

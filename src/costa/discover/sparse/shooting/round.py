@@ -39,7 +39,7 @@ from ..innovations import ChannelTest, innovation_tests
 from ..measure_next import measure_next
 from ..observations import Observations
 from ..observed import start_is_searched
-from ..rounds import HypothesisScore, PartialCandidate, PartialRound, channel_tests
+from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests
 from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit, states_eliminated
 from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms
 
@@ -147,15 +147,15 @@ def _assessed(model, hypothesis, features, few: Observations, fit: ShootingFit, 
 
 def decide_by_shooting(
     model: CellModel, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings: DiscoverySettings
-) -> PartialRound:
+) -> SparseRound:
     """Rank the fits (``fits`` in the screen's candidates' order) and decide the round (step 4)."""
     return replace(_decided(model, screen, fits, obs, settings), route="shooting")
 
 
-def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings) -> PartialRound:
+def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings) -> SparseRound:
     tests, flagged = screen.tests, screen.flagged
     if not flagged:
-        return PartialRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
+        return SparseRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
     few = shooting_cells(obs, settings.shooting_cells)
     base, cells = screen.base, f"cells 0-{settings.shooting_cells - 1}"
     penalty = float(np.log(int(np.isfinite(few.y).sum())))
@@ -168,7 +168,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         fitted.append(FittedForm(h, form.features, fit, gain, base.cell_cost - fit.cell_cost, corrected))
         samples = rng.multivariate_normal(fit.theta, shot.covariance, size=settings.bootstrap, method="eigh")
         states = Segments(model, h, features, few, round(SEGMENT_S / few.dt)).path(fit.starts.reshape(-1, 8), fit.theta)
-        candidates[id(fitted[-1])] = PartialCandidate(
+        candidates[id(fitted[-1])] = SparseCandidate(
             HypothesisScore(h, 1.0, 0.0, form.gain / 2), states, features, fit.theta, samples, None, corrected,
             shot.tests, None, gain, 0, 1.0 - fit.excess / base.excess if base.excess > 0 else 0.0,
         )  # fmt: skip
@@ -179,7 +179,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     paying = [candidates[id(f)] for f in ranking.order]
     order = paying + sorted((c for c in candidates.values() if c not in paying), key=lambda c: -c.bic_gain)
 
-    def next_measured(chosen: Sequence[PartialCandidate]):
+    def next_measured(chosen: Sequence[SparseCandidate]):
         return measure_next([(c.corrected, c.states) for c in chosen], few)
 
     if not ranking.order:
@@ -187,7 +187,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             f"unexplained: channels {flagged} disagree beyond noise, but no closed form fitted on {cells} pays "
             "its terms in every cell"
         )
-        return PartialRound(model, tests, order, None, [], True, None, verdict, measure_next=next_measured(order[:3]))
+        return SparseRound(model, tests, order, None, [], True, None, verdict, measure_next=next_measured(order[:3]))
     chosen = candidates[id(ranking.equivalent[0])]
     equivalent = [candidates[id(f)] for f in ranking.equivalent[1:] + ranking.rivals]
     rivals = [candidates[id(f)] for f in ranking.rivals]
@@ -202,7 +202,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             f"the correction {effect}" + ("" if applied else f", less than {settings.min_explained:.0%}: not applied")
         )
         recommended = next_measured([chosen, *(c for c in order if c is not chosen)][:3])
-        return PartialRound(
+        return SparseRound(
             model, tests, order, chosen if applied else None, [], True, None, verdict, measure_next=recommended
         )
     if rivals:
@@ -211,7 +211,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         verdict = f"not identifiable: {keys} fit the measured channels on {cells} within {MARGIN:g} of BIC gain"
         verdict += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
         separated = recommended[0].channel if recommended else None
-        return PartialRound(
+        return SparseRound(
             model, tests, order, chosen, equivalent, False, separated, f"{verdict}; the correction {effect}",
             measure_next=recommended,
         )  # fmt: skip
@@ -225,7 +225,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     if ranking.incomplete:
         left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
         what += f" (form incomplete: its closed form leaves {left} times the noise variance on {cells})"
-    return PartialRound(
+    return SparseRound(
         model, tests, order, chosen, equivalent, True, None, f"{what}; the correction {effect}",
         form_tolerated=ranking.incomplete, name=None if name == chosen.hypothesis else name,
     )  # fmt: skip
