@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from conftest import REPOSITORY, snakemake
 
-from costa.benchmark.score import peer_rates, rates, recall_by_signal, wilson
+from costa.benchmark.score import peer_rates, projected_hours, rates, recall_by_signal, wilson
 from costa.benchmark.signal import signal
 from costa.compiled import CompiledModel
 from costa.config import ConfigError, check_consistency
@@ -188,3 +188,11 @@ def test_the_benchmark_runs_end_to_end_at_the_smoke_sizes(tmp_path):
     page = (results / "benchmark.md").read_text()
     assert "| full | 3 (" in page and "## Against its peers" in page
     assert (results / "recall_by_signal.png").stat().st_size > 10_000
+
+
+def test_a_size_is_projected_from_the_job_seconds_a_case():
+    table = pd.DataFrame({"sensors": ["full", "plant"], "total_seconds": [500.0, 300.0], "cases": [10, 2]})
+    page = projected_hours(table, {"a": {"full": 72}, "b": {"full": 72, "plant": 24}, "c": {"lab": 1}}, (2, 16, 10_000))
+    # a: 72 x 50 s = 1 job hour; 2 cores 30 min, 16 cores 3.75 min, and never below one case's 50 s
+    assert "| a | 72 | 1.0 | 30 min | 4 min | 1 min |" in page
+    assert "| b | 96 | 2.0 | 1.0 h |" in page and "| c |" not in page  # 72 x 50 + 24 x 150 s

@@ -56,5 +56,6 @@ rule collect_benchmark:
         split=config["benchmark"]["split"],
         size=config["benchmark"]["size"],
         bins=config["benchmark"]["signal_bins"],
+        sizes=config["benchmark"]["sizes"],
     script:
         "../scripts/collect_benchmark.py"

@@ -5,7 +5,15 @@ from pathlib import Path
 import pandas as pd
 
 from costa import runtime
-from costa.benchmark.score import case_table, peer_rates, peers_markdown, rates, rates_markdown, recall_by_signal
+from costa.benchmark.score import (
+    case_table,
+    peer_rates,
+    peers_markdown,
+    projected_hours,
+    rates,
+    rates_markdown,
+    recall_by_signal,
+)
 from costa.plots import plot_recall_by_signal, save
 
 runtime.configure(snakemake)
@@ -28,6 +36,8 @@ curve = recall_by_signal(cases, params.bins)
 curve.to_csv(snakemake.output.curve, index=False)
 save(plot_recall_by_signal(curve, cases), snakemake.output.figure)
 page = "# The discovery benchmark\n\n" + rates_markdown(table, params.split, params.size)
+page += "\nEach size at this run's job seconds a case (2 cores run two jobs at a time; the SLURM profile as many as it is given):\n\n"
+page += projected_hours(table, {size: chosen["sensors"] for size, chosen in params.sizes.items()}, (2, 16, 64))
 if snakemake.input.peers:
     peers = peer_rates(pd.concat(map(pd.read_csv, snakemake.input.peers), ignore_index=True))
     page += f"\n## Against its peers, on the full set's first {len(snakemake.input.peers)} cases\n\n"

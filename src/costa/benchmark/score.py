@@ -19,7 +19,10 @@ from scipy.stats import binomtest
 from ..discover.cases.drawn import DRAWN_NAME, draw_effect
 from ..discover.summary import judged
 
-__all__ = ["case_table", "peer_rates", "peers_markdown", "rates", "rates_markdown", "recall_by_signal", "wilson"]
+__all__ = [
+    "case_table", "peer_rates", "peers_markdown", "projected_hours", "rates", "rates_markdown", "recall_by_signal",
+    "wilson",
+]  # fmt: skip
 
 
 def wilson(successes: int, trials: int, level: float = 0.95) -> tuple[float, float]:
@@ -112,6 +115,26 @@ def rates_markdown(rates_table: pd.DataFrame, split: str, size: str) -> str:
             f"| {row['false alarm']} / {row['false name']} | {row['median_seconds']:.0f} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def projected_hours(rates_table: pd.DataFrame, sizes: Mapping[str, Mapping[str, int]], cores: Sequence[int]) -> str:
+    """What each configured size would take, from this run's mean job seconds a case per sensor set (the
+    jobs of different cases are independent, so N cores divide the job time until the last case's chain)."""
+    mean = (rates_table.set_index("sensors").total_seconds / rates_table.set_index("sensors").cases).to_dict()
+    lines = ["| size | cases | job hours | " + " | ".join(f"on {n} cores" for n in cores) + " |",
+             "|---|---|---|" + "---|" * len(cores)]  # fmt: skip
+    for size, counts in sizes.items():
+        if not set(counts) <= set(mean):
+            continue
+        hours = sum(count * mean[sensor_set] for sensor_set, count in counts.items()) / 3600
+        longest = max(mean[sensor_set] for sensor_set in counts) / 3600
+        walls = " | ".join(_duration(max(hours / n, longest)) for n in cores)
+        lines.append(f"| {size} | {sum(counts.values())} | {hours:.1f} | {walls} |")
+    return "\n".join(lines) + "\n"
+
+
+def _duration(hours: float) -> str:
+    return f"{hours:.1f} h" if hours >= 1 else f"{hours * 60:.0f} min"
 
 
 def peer_rates(rows: pd.DataFrame) -> pd.DataFrame:
