@@ -50,6 +50,8 @@ def case_table(
             "case": case, "sensors": sensor_set, "seed": effect.seed, "kind": effect.kind, "truth": effect.key or "",
             "family": effect.family, "in_library": effect.in_library, "size": effect.size, "noise": effect.noise,
             "signal": shown["signal"], "samples": shown["samples"], "accepted": " ".join(f["accepted"]),
+            "changes": " ".join(f["expected_equations"]),
+            "flagged": " ".join(f.get("flagged_equations", f.get("flagged_channels", []))),
             "outcome": f["outcome"], "named": " then ".join(f["named"]), "verdict": judged(f), "seconds": spent,
         })  # fmt: skip
     return pd.DataFrame(rows)
