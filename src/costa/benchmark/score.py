@@ -103,10 +103,10 @@ def rates_markdown(rates_table: pd.DataFrame, split: str, size: str) -> str:
     lines = [
         f"Drawn cases of the `{split}` seeds, size `{size}`: precision = names right / names given, recall = names "
         "right / cases with an effect (Wilson 95 % intervals); not identifiable: the truth among the equivalents "
-        "listed / not; false alarms: nulls flagged or named.",
+        "listed / not; s a case: the median of its jobs' seconds.",
         "",
-        "| sensors | cases (nulls) | precision | recall | named right / wrong | not identifiable (truth listed / not) "
-        "| unexplained / missed | false alarms / names | s a case (median) |",
+        "| sensors | cases (nulls) | precision | recall | right / wrong | not identifiable (truth listed / not) "
+        "| unexplained / missed | nulls flagged / named | s a case |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rates_table.to_dict(orient="records"):
