@@ -22,13 +22,12 @@ from costa.discover.cases.drawn import (
     drawn_case,
     effect_case,
     equivalent_names,
-    operating_points,
     split_cases,
 )
 from costa.discover.cases.unshipped import find_case
 from costa.discover.summary import judged
 from costa.integrate import rk4_step
-from costa.physics import true_model
+from costa.physics import operating_points, true_model
 
 
 def test_the_seed_ranges_never_meet_and_a_split_draws_inside_its_own():
@@ -58,7 +57,7 @@ def test_the_draws_cover_every_kind_and_family_with_the_stated_share_of_nulls():
 
 def test_every_family_stays_within_its_bound_and_compiles_to_numpys_step():
     """|f| <= 2 over the held range, and the compiled step (which traces the family) equals numpy's."""
-    x, u = operating_points(64)
+    x, u = operating_points(np.random.default_rng(4), 64)
     full = true_model()
     for family, count, _ in FAMILIES:
         effect = DrawnEffect(seed=1, kind="property", target="bath_heat_capacity", family=family,
@@ -76,7 +75,7 @@ def test_every_family_stays_within_its_bound_and_compiles_to_numpys_step():
 def test_the_names_that_are_right_are_the_hypotheses_the_data_cannot_tell_apart():
     """A flow out of a part that enters one balance only is that balance's missing flow (as the shipped
     top heat loss accepts the electric power); an input's gain is not a flow proportional to it."""
-    full, (x, u) = true_model(), operating_points()
+    full, (x, u) = true_model(), operating_points(np.random.default_rng(5), 256)
 
     def names(kind, target):
         effect = DrawnEffect(seed=0, kind=kind, target=target, family="constant", variables=(), size=0.01, noise=0.01)

@@ -7,13 +7,13 @@ import copy
 import numpy as np
 import pytest
 import torch
-from conftest import random_operating_points
 
 from costa.beyond import noisy_table
 from costa.data import arrays, to_table
 from costa.ensemble import MLPEnsemble
 from costa.forecast import rollout_physics
 from costa.models import NetworkModel, load_models, save_instance
+from costa.physics import operating_points
 from costa.train import ModelType, Normalisation, train_model_type, training_data
 
 DT = 10.0
@@ -21,7 +21,7 @@ DT = 10.0
 
 def varying_inputs(rng, n, steps):
     """Inputs held for 10 steps at random operating values (every input varies)."""
-    _, u = random_operating_points(rng, n * steps // 10)
+    _, u = operating_points(rng, n * steps // 10)
     return np.repeat(u.reshape(n, steps // 10, 5), 10, axis=1)
 
 
@@ -61,7 +61,7 @@ def test_smoothed_costa_target_keeps_input_steps_out_of_the_filter(rng, pbm):
     """Data that follow the PBM exactly (forward Euler) have a zero CoSTA residual, however
     the held inputs jump; smoothing the residual keeps it zero, where smoothing the rates alone would not."""
     n, steps = 3, 200
-    x0, _ = random_operating_points(rng, n)
+    x0, _ = operating_points(rng, n)
     u = varying_inputs(rng, n, steps)
     start = np.zeros((n, steps, 8))
     start[:, 0] = x0
@@ -89,7 +89,7 @@ def bounded_pair(rng, pbm, margin, inputs):
     [-a, b] per state.  Returns the two models, the normalisation and a source function
     (the correction NN(z) = (rhs - f_PBM) / std(r)) at states x and inputs u.
     """
-    x, u = random_operating_points(rng, 500)
+    x, u = operating_points(rng, 500)
     samples = np.concatenate([x, u], axis=1)
     generators = [torch.Generator().manual_seed(i) for i in range(3)]
     ensemble = MLPEnsemble.kaiming([13, 16, 16, 8], generators)
@@ -137,7 +137,7 @@ def test_input_clamp_changes_only_inputs_outside_the_training_range(rng, pbm):
 
 @pytest.mark.parametrize("margin", [0.0, 0.1])
 def test_rate_bound_keeps_every_rate_in_the_training_range_and_equals_costa_inside(rng, pbm, margin):
-    x, u = random_operating_points(rng, 500)
+    x, u = operating_points(rng, 500)
     plain, _, n, _, _, _ = bounded_pair(rng, pbm, 0.0, inputs=False)
     free = plain.rhs(torch.from_numpy(x).expand(3, -1, -1), torch.from_numpy(u))
     # the training rates span the middle 80 % of these rates, so that some fall outside

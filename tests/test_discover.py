@@ -7,7 +7,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import random_operating_points
 
 from costa.data import TrajectoryDataError, to_table
 from costa.discover import CASES, DiscoverySettings, HiddenEffectCase, add_noise, discover
@@ -28,7 +27,7 @@ from costa.discover.findings import findings, findings_markdown
 from costa.discover.full_state.search import Candidate
 from costa.discover.full_state.weak_form import WeakForm, equation_tests
 from costa.discover.pipeline import run_discovery, split_held_out, starting_model
-from costa.physics import PART_ORDER, InputCorrection, ablated_model
+from costa.physics import PART_ORDER, InputCorrection, ablated_model, operating_points
 from costa.simulate import simulate_set
 
 
@@ -94,7 +93,7 @@ def test_a_correction_that_makes_the_disagreement_worse_reads_as_such():
 
 
 def test_sensitivities_match_the_analytic_derivatives(model, rng):
-    x, u = random_operating_points(rng, 50)
+    x, u = operating_points(rng, 50)
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     k = model.params
     liquidus = hypotheses["part:liquidus_temperature"].sensitivity(model, x, u)
@@ -117,7 +116,7 @@ def test_a_part_cannot_be_corrected_by_what_is_computed_from_it(model):
 
 
 def test_corrected_models_add_the_closed_form(model, rng):
-    x, u = random_operating_points(rng, 20)
+    x, u = operating_points(rng, 20)
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     term = hypotheses["term:bath_energy"]
     features = [f for f in term.features() if f.name in ("1", "(x6 - 970)")]
@@ -135,7 +134,7 @@ def test_corrected_models_add_the_closed_form(model, rng):
 
 
 def test_an_input_correction_is_the_delivered_input_everywhere(model, rng):
-    x, u = random_operating_points(rng, 20)
+    x, u = operating_points(rng, 20)
     feeder = model.with_input(InputCorrection("u1", "-0.08", lambda v: -0.08))
     delivered = u.copy()
     delivered[:, 0] *= 0.92
@@ -149,7 +148,7 @@ def test_an_input_correction_is_the_delivered_input_everywhere(model, rng):
 
 
 def test_each_part_reads_what_its_formula_names(model, rng):
-    reads = model.reads(*random_operating_points(rng, 1))
+    reads = model.reads(*operating_points(rng, 1))
     assert {"bath_conductivity", "bubble_voltage", "u2", "u5"} <= reads["cell_voltage"]
     assert {"liquidus_temperature", "k1", "k2", "x7"} <= reads["freezing_rate"]
     assert "bath_conductivity" not in reads["bubble_thickness"]
@@ -161,7 +160,7 @@ def _candidate(model, key: str, terms: int) -> Candidate:
 
 
 def test_the_cause_is_named_before_its_consequences(model, rng):
-    reads = model.reads(*random_operating_points(rng, 1))
+    reads = model.reads(*operating_points(rng, 1))
     order = lambda keys, named=(): [c.hypothesis.key for c in naming_order(  # noqa: E731
         [_candidate(model, k, n) for k, n in keys], named, reads, terms=lambda c: len(c.features))]  # fmt: skip
     # U and P_el are computed from g2: g2 is named, though its closed form has more terms

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
-from conftest import random_operating_points
 
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.naming import balance_moved, causes_through
 from costa.discover.sparse.shooting.fit import ShootingFit, states_eliminated
 from costa.discover.sparse.shooting.screen import FittedForm, _forward, ranked_fits
+from costa.physics import operating_points
 
 
 def test_the_reduced_gradient_gives_what_the_coefficients_add_to_the_whole_least_squares_fit():
@@ -76,7 +76,7 @@ def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_
     carries while another does not pay its share of the term's price, does not rank; where the best
     is flagged, the outcome is unexplained."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    x, u = random_operating_points(np.random.default_rng(0), 20)
+    x, u = operating_points(np.random.default_rng(0), 20)
     sink = _fitted(model, hypotheses, "term:alf3_mass", -0.0026, 500.0, {"x6": 1.30, "c3": 0.9})
     same = _fitted(model, hypotheses, "part:alf3_neutralisation", 0.0026, 499.0, {"x6": 0.95, "c3": 0.8})
     other = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 495.0, {"x6": 1.0, "c3": 0.7})
@@ -107,7 +107,7 @@ def test_a_fit_that_moves_one_balance_alone_is_named_as_the_flow_missing_from_it
     what the voltage and the crane scale read), a feed that delivers less (its alumina carries AlF3
     and cryolite with it: three balances) and an AlF3-to-cryolite transfer (two)."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    x, u = random_operating_points(np.random.default_rng(0), 20)
+    x, u = operating_points(np.random.default_rng(0), 20)
     chi2 = {"x6": 1.0, "U_cell": 1.0}
     freezing = _fitted(model, hypotheses, "part:bath_freezing_heat", -20570.0, 5000.0, chi2)
     assert balance_moved(freezing.corrected, model, x, u) == "bath_energy"
@@ -129,7 +129,7 @@ def test_a_property_that_moves_one_balance_alone_is_named_as_itself(model):
     of the bath, not a flow, and is named as itself (unshipped bath_heat_capacity was named
     term:bath_energy before this rule)."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    x, u = random_operating_points(np.random.default_rng(0), 20)
+    x, u = operating_points(np.random.default_rng(0), 20)
     capacity = _fitted(model, hypotheses, "property:bath_heat_capacity", 0.1124, 5000.0, {"x6": 1.0, "U_cell": 1.0})
     assert balance_moved(capacity.corrected, model, x, u) == "bath_energy"
     assert ranked_fits([capacity], model, x, u, PENALTY, EXCESS).verdict == "named: property:bath_heat_capacity"
@@ -143,7 +143,7 @@ def test_a_voltage_fit_is_named_as_the_parts_that_act_on_the_cell_only_through_t
     temperature (the freezing rate and the ledge's heat flows read it) acts through no single part;
     the electric power u2 U has no such cause, since a sensor reads U itself."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    x, u = random_operating_points(np.random.default_rng(0), 20)
+    x, u = operating_points(np.random.default_rng(0), 20)
     causes = ["bath_conductivity", "bubble_coverage", "bubble_thickness", "bubble_voltage"]
     assert causes_through("cell_voltage", model, x, u) == causes
     low = x.copy()  # alumina from 0.5 % to 12 %: across the bubble coverage's pole at 2.06 %
@@ -166,7 +166,7 @@ def test_a_fit_that_removes_nearly_all_the_excess_is_named_with_its_forms_small_
     small form error that 34 000 samples flag) removes 97 % of it and is named, "form incomplete";
     at 1.6 (0.6 beyond noise, more than the 0.5 the filter route allows) it is unexplained."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    x, u = random_operating_points(np.random.default_rng(0), 20)
+    x, u = operating_points(np.random.default_rng(0), 20)
     small = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 1.5})
     assert ranked_fits([small], model, x, u, PENALTY, 20.0).verdict == (
         "named: input:u3 (the same physics: ['term:alf3_mass']); form incomplete: it leaves {'U_cell': 1.5} "

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import REPOSITORY, random_operating_points
+from conftest import REPOSITORY
 
 from costa.discover import CASES, add_noise
 from costa.discover.cases.tables import case_tables
@@ -24,7 +24,7 @@ from costa.peers.compare import METHODS, compare_case
 from costa.peers.methods import PeerSettings, pysindy_peer, ude_peer
 from costa.peers.score import COLUMNS, DASH
 from costa.peers.sparse import FEATURES, SparseFit, corrected_per_row
-from costa.physics import BalanceTerm
+from costa.physics import BalanceTerm, operating_points
 from costa.simulate import simulate_set
 
 #: a bath heat loss of 300 W/K (x6 - 970) + 10 kW: exactly two terms of the flow library
@@ -97,7 +97,7 @@ def test_a_grid_of_fits_rolls_out_as_each_fit_alone(model, heat_loss_data):
 
 
 def test_truths_are_facts_about_the_models(model, rng):
-    x, u = random_operating_points(rng, 200)
+    x, u = operating_points(rng, 200)
     for name, equations in (("printed_k4", ("x3",)), ("top_heat_loss", ("x6",)), ("wall_conductivity", ("x7", "x8"))):
         true, start = find_case(name).models(model)
         assert changed_equations(true, start, x, u) == equations, name

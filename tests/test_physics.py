@@ -7,11 +7,10 @@ import math
 import numpy as np
 import pytest
 import torch
-from conftest import random_operating_points
 from scipy.optimize import brentq
 
 from costa.integrate import euler_step, rk4_step
-from costa.physics import BalanceTerm, authors_code_parameters, paper_printed_parameters, true_model
+from costa.physics import BalanceTerm, authors_code_parameters, operating_points, paper_printed_parameters, true_model
 
 
 def spec_rhs(x, u):
@@ -45,7 +44,7 @@ def spec_rhs(x, u):
 
 
 def test_true_model_is_specs_equations(model, rng):
-    x, u = random_operating_points(rng, 2000)
+    x, u = operating_points(rng, 2000)
     np.testing.assert_allclose(model.rhs(x, u), spec_rhs(x, u), rtol=1e-11, atol=1e-15)
 
 
@@ -65,7 +64,7 @@ def test_constants_derive_from_material_properties():
 
 def test_freezing_moves_mass_between_ledge_and_bath(model, rng):
     """dx1/dt + dx4/dt = k5 u1: freezing only moves cryolite between bath and ledge."""
-    x, u = random_operating_points(rng, 5000)
+    x, u = operating_points(rng, 5000)
     dx = model.rhs(x, u)
     k5 = model.params.k5
     np.testing.assert_allclose(
@@ -74,7 +73,7 @@ def test_freezing_moves_mass_between_ledge_and_bath(model, rng):
 
 
 def test_linear_states_follow_their_inputs(model, rng):
-    x, u = random_operating_points(rng, 100)
+    x, u = operating_points(rng, 100)
     dx = model.rhs(x, u)
     k = model.params
     np.testing.assert_array_equal(dx[:, 1], u[:, 0] - k.k3 * u[:, 1])
@@ -98,7 +97,7 @@ def test_liquidus_temperature_at_hand_computed_point(model):
 
 def test_liquidus_matches_papers_fraction_form(model, rng):
     """The printed form in mass fractions (with 3265.5 = 0.13 * 100^2.2 rounded) agrees to rounding."""
-    x, u = random_operating_points(rng, 500)
+    x, u = operating_points(rng, 500)
     c2, c3 = x[:, 1] / x[:, 1:4].sum(1), x[:, 2] / x[:, 1:4].sum(1)
     printed = (
         991.2 + 112 * c3 + 61 * c3**1.5 - 3265.5 * c3**2.2 - 793 * c2 / (-23 * c2 * c3 - 17 * c3**2 + 9.36 * c3 + 1)
@@ -144,7 +143,7 @@ def test_ablated_model_equals_true_model_where_liquidus_is_968(model, pbm):
 
 
 def test_ablation_changes_only_the_liquidus_dependent_balances(model, pbm, rng):
-    x, u = random_operating_points(rng, 200)
+    x, u = operating_points(rng, 200)
     true, ablated = model.rhs(x, u), pbm.rhs(x, u)
     for i in (1, 2, 4, 7):  # x2, x3, x5, x8 do not read g1
         np.testing.assert_array_equal(true[:, i], ablated[:, i])
@@ -154,20 +153,20 @@ def test_ablation_changes_only_the_liquidus_dependent_balances(model, pbm, rng):
 
 
 def test_numpy_and_torch_agree(model, rng):
-    x, u = random_operating_points(rng, 300)
+    x, u = operating_points(rng, 300)
     from_torch = model.rhs(torch.from_numpy(x), torch.from_numpy(u)).numpy()
     np.testing.assert_allclose(from_torch, model.rhs(x, u), rtol=1e-12, atol=1e-16)
 
 
 def test_torch_gradients_flow_through_the_model(model, rng):
-    x, u = random_operating_points(rng, 4)
+    x, u = operating_points(rng, 4)
     xt = torch.from_numpy(x).requires_grad_()
     model.rhs(xt, torch.from_numpy(u))[:, 5].sum().backward()
     assert torch.isfinite(xt.grad).all() and (xt.grad[:, 5] != 0).all()
 
 
 def test_model_broadcasts_over_batch_shapes(model, rng):
-    x, u = random_operating_points(rng, 12)
+    x, u = operating_points(rng, 12)
     flat = model.rhs(x, u)
     np.testing.assert_array_equal(model.rhs(x.reshape(3, 4, 8), u.reshape(3, 4, 5)).reshape(12, 8), flat)
     np.testing.assert_array_equal(model.rhs(x[0], u[0]), flat[0])
@@ -191,7 +190,7 @@ def test_integrator_convergence_order_on_the_cell_model(model, step, order):
 
 
 def test_balance_terms_add_flows_in_physical_units(model, rng):
-    x, u = random_operating_points(rng, 50)
+    x, u = operating_points(rng, 50)
     top_loss = BalanceTerm(
         "top_heat_loss", "20 kW", "W", {"bath_energy": -1.0}, lambda v, k, q: v.xp.full_like(v.x1, 2e4)
     )
@@ -208,7 +207,7 @@ def test_balance_terms_add_flows_in_physical_units(model, rng):
 
 def test_printed_variant_reads_the_alumina_feed_in_g3_and_drops_k9(rng):
     printed, code = true_model(variant="paper_printed"), true_model()
-    x, u = random_operating_points(rng, 100)
+    x, u = operating_points(rng, 100)
     u_changed = u.copy()
     u_changed[:, 1] *= 1.1
     g3 = lambda m, uu: m.quantities(x, uu)["bubble_coverage"]  # noqa: E731
@@ -245,7 +244,7 @@ def test_property_corrections_equal_rederiving_the_constants(model, rng, prop, m
 
     from costa.physics import PROPERTIES, MaterialProperties, PropertyCorrection
 
-    x, u = random_operating_points(rng, 100)
+    x, u = operating_points(rng, 100)
     corrected = model.with_property(PropertyCorrection(PROPERTIES[prop], "0.1", lambda v: 0.1 + 0 * v.x1))
     material = MaterialProperties()
     changed = dataclasses.replace(material, **{material_field: 1.1 * getattr(material, material_field)})
@@ -256,7 +255,7 @@ def test_property_corrections_equal_rederiving_the_constants(model, rng, prop, m
 def test_a_property_may_vary_with_the_state(model, rng):
     from costa.physics import PROPERTIES, PropertyCorrection
 
-    x, u = random_operating_points(rng, 50)
+    x, u = operating_points(rng, 50)
     varying = model.with_property(
         PropertyCorrection(PROPERTIES["bath_heat_capacity"], "0.01 (x6 - 970)", lambda v: 0.01 * (v.x6 - 970))
     )

@@ -2,6 +2,7 @@
 
 from .cell import CellVariables
 from .model import BALANCES, BalanceTerm, CellModel, InputCorrection, ablated_model, model_from_config, true_model
+from .operating_range import operating_points
 from .parameters import (
     CONSTANTS,
     CellParameters,
@@ -33,6 +34,7 @@ __all__ = [
     "constant_part",
     "constants_table",
     "model_from_config",
+    "operating_points",
     "paper_printed_parameters",
     "parameters_from_config",
     "true_model",

@@ -35,6 +35,7 @@ from ...physics import (
     CellModel,
     InputCorrection,
     PropertyCorrection,
+    operating_points,
     true_model,
 )  # fmt: skip
 from ...variables import INPUTS, STATES
@@ -222,7 +223,7 @@ def effect_case(effect: DrawnEffect) -> HiddenEffectCase:
     """A case with ``effect`` hidden: its effect on the full model, the equations it changes, the names
     that are right (named ``drawn<seed>``: its cells and noise come from the name)."""
     full = true_model()
-    x, u = operating_points()
+    x, u = _operating_points()
     accepted = equivalent_names(effect, full, x, u) if effect.key else ()
     return HiddenEffectCase(
         f"drawn{effect.seed}", effect.describe(), f"drawn: {effect.kind} ({effect.family})", "full", effect.noise,
@@ -238,22 +239,9 @@ def split_cases(split: str, count: int) -> list[str]:
     return [f"drawn{seed}" for seed in seeds_[:count]]
 
 
-def operating_points(n: int = 256) -> tuple[np.ndarray, np.ndarray]:
-    """States (n, 8) and inputs (n, 5) spread over the cell's operating range, from a fixed stream."""
-    rng = seeds.numpy_generator(0, 0, "benchmark/operating_points")
-    x4 = rng.uniform(9500, 17000, n)
-    c2, c3 = rng.uniform(0.023, 0.05, n), rng.uniform(0.09, 0.13, n)
-    bath = x4 / (1 - c2 - c3)
-    x = np.column_stack([
-        rng.uniform(1600, 5500, n), c2 * bath, c3 * bath, x4, rng.uniform(9760, 10000, n),
-        rng.uniform(958, 988, n), rng.uniform(745, 875, n), rng.uniform(490, 680, n),
-    ])  # fmt: skip
-    u = np.column_stack([
-        rng.uniform(0, 22, n) * (rng.random(n) < 0.5), rng.uniform(118000, 155000, n),
-        rng.uniform(0, 8, n) * (rng.random(n) < 0.5), rng.uniform(0, 9, n) * (rng.random(n) < 0.5),
-        rng.uniform(0.043, 0.057, n),
-    ])  # fmt: skip
-    return x, u
+def _operating_points() -> tuple[np.ndarray, np.ndarray]:
+    """256 states and inputs over the operating range, from a fixed stream: where equivalence is judged."""
+    return operating_points(seeds.numpy_generator(0, 0, "benchmark/operating_points"), 256)
 
 
 def changed_states(true: CellModel, start: CellModel, x: np.ndarray, u: np.ndarray) -> tuple[str, ...]:
