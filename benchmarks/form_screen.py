@@ -101,7 +101,7 @@ def main() -> None:
             f"accepted ranks {_rank([f.hypothesis.key for f in forms], case.accepted)} by BIC gain, "
             f"{_rank([f.hypothesis.key for f in by_excess(forms)], case.accepted)} by excess"
         )
-        screen = ShotScreen(tests, base, forms, candidates)
+        screen = ShotScreen(tests=tests, base=base, forms=forms, candidates=candidates)
         fits, seconds = [], []
         for i, form in enumerate(candidates):
             started = time.perf_counter()

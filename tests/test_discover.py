@@ -156,7 +156,7 @@ def test_each_part_reads_what_its_formula_names(model, rng):
 
 def _candidate(model, key: str, terms: int) -> Candidate:
     h = next(h for h in candidate_hypotheses(model) if h.key == key)
-    return Candidate(h, h.features()[:terms], np.ones(terms))
+    return Candidate(hypothesis=h, features=h.features()[:terms], coefficients=np.ones(terms))
 
 
 def test_the_cause_is_named_before_its_consequences(model, rng):

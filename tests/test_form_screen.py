@@ -63,9 +63,25 @@ def _fitted(
 ) -> FittedForm:
     h = hypotheses[key]
     constant = next(f for f in h.features() if f.name == "1")
-    fit = ShootingFit(np.zeros(1), np.zeros((1, 1, 8)), 0.0, np.zeros(2), chi2, dict.fromkeys(chi2, 100), 0, 1)
+    fit = ShootingFit(
+        theta=np.zeros(1),
+        starts=np.zeros((1, 1, 8)),
+        cost=0.0,
+        cell_cost=np.zeros(2),
+        chi2=chi2,
+        samples=dict.fromkeys(chi2, 100),
+        lost=0,
+        iterations=1,
+    )
     gains = np.array(cells) * (bic_gain + PENALTY)
-    return FittedForm(h, (constant,), fit, bic_gain, gains, h.corrected(model, [constant], [coefficient]))
+    return FittedForm(
+        hypothesis=h,
+        features=(constant,),
+        fit=fit,
+        bic_gain=bic_gain,
+        cell_gains=gains,
+        corrected=h.corrected(model, [constant], [coefficient]),
+    )
 
 
 def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_leave_it_undecided(model):

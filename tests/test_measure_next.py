@@ -27,7 +27,7 @@ def _obs(u, channels=("U_cell",), every=(1,)):
     y = np.full((*u.shape[:2], len(channels)), np.nan)
     for c, stride in enumerate(every):
         y[:, ::stride, c] = 1.0
-    return Observations(y, u, tuple(channels), np.ones(len(channels)), 10.0)
+    return Observations(y=y, u=u, channels=tuple(channels), noise=np.ones(len(channels)), dt=10.0)
 
 
 def test_the_measurement_that_separates_two_explanations_ranks_first(two_explanations):

@@ -123,7 +123,7 @@ def test_a_case_built_to_be_unidentifiable_names_nothing_and_says_what_would_sep
     y = clean + np.random.default_rng(4).normal(size=clean.shape) * noise
     found = discover_round(
         model,
-        Observations(y, trajectories.u, channels, noise, 10.0),
+        Observations(y=y, u=trajectories.u, channels=channels, noise=noise, dt=10.0),
         DiscoverySettings(bootstrap=50),
         np.random.default_rng(0),
     )
@@ -212,7 +212,7 @@ def test_an_input_that_acts_now_and_then_is_visible_to_the_screen():
     u[..., 3] = 0.0
     u[:, 300, 3] = 9.0  # 90 kg in one 10 s step
     x5 = trajectories.x[..., 4:5]
-    obs = Observations(x5, u, ("x5",), np.array([10.0]), 10.0)
+    obs = Observations(y=x5, u=u, channels=("x5",), noise=np.array([10.0]), dt=10.0)
     tapping = [h for h in candidate_hypotheses(model) if h.key == "input:u4"]
     (scale,) = hypothesis_scales(model, tapping, obs, 64, trajectories.x)
     assert scale == pytest.approx(10.0 / (90.0 * np.sqrt(1 / 10)), rel=0.02)
@@ -375,7 +375,7 @@ def test_where_the_start_needs_the_first_hand_samples_the_gaps_first_window_hold
     y = np.full((2, steps, 3), np.nan)
     y[..., 0] = 4.2  # the voltage every 10 s; AlF3 and Al2O3 by hand, the first 3 h in
     y[:, 1080::2880, 1:] = 0.1
-    pot_line = Observations(y, np.zeros((2, steps, 5)), ("U_cell", "c2", "c3"), np.ones(3), 10.0)
+    pot_line = Observations(y=y, u=np.zeros((2, steps, 5)), channels=("U_cell", "c2", "c3"), noise=np.ones(3), dt=10.0)
     evaluation, start_steps = _estimation_windows(paper, pot_line, "cell.csv")
     assert start_steps == 2880
     assert evaluation.windows == {"short": (0, 2880), "medium": (2880, 8640), "long": (8640, 17280)}
@@ -399,7 +399,7 @@ def test_the_channel_tests_leave_out_the_hours_a_searched_start_settles_in():
     y = np.full((2, steps, 3), np.nan)
     y[..., 0] = 4.2
     y[:, 1080::2880, 1:] = 0.1
-    pot_line = Observations(y, np.zeros((2, steps, 5)), ("U_cell", "c2", "c3"), np.ones(3), 10.0)
+    pot_line = Observations(y=y, u=np.zeros((2, steps, 5)), channels=("U_cell", "c2", "c3"), noise=np.ones(3), dt=10.0)
     assert pot_line.settling_steps == 16 * 360
     y = y.copy()
     y[:, 0, 1:] = 0.1
@@ -454,7 +454,16 @@ def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves(
     from costa.discover.sparse.innovations import ChannelTest
 
     def best(*tests):
-        return [SimpleNamespace(tests_after=[ChannelTest(c, n, chi2, 0, 0, 0, 0, False) for c, n, chi2 in tests])]
+        return [
+            SimpleNamespace(
+                tests_after=[
+                    ChannelTest(
+                        channel=c, samples=n, chi2_per_dof=chi2, z=0, bias=0, bias_z=0, whiteness_z=0, flagged=False
+                    )
+                    for c, n, chi2 in tests
+                ]
+            )
+        ]
 
     assert _dispersion(best(("U_cell", 1000, 400.0), ("x6", 10, 1.0))) == pytest.approx(400_010 / 1010)
     assert _dispersion(best(("U_cell", 1000, 0.9))) == 1.0
@@ -507,10 +516,31 @@ def test_a_correction_that_leaves_a_small_form_error_is_named_with_its_form_inco
     settings = DiscoverySettings()
 
     def round_(explained, chi2, identifiable=True):
-        flagged = [ChannelTest("U_cell", 1000, chi2, 9.0, 0.1, 0.0, 0.0, True)]
+        flagged = [
+            ChannelTest(
+                channel="U_cell",
+                samples=1000,
+                chi2_per_dof=chi2,
+                z=9.0,
+                bias=0.1,
+                bias_z=0.0,
+                whiteness_z=0.0,
+                flagged=True,
+            )
+        ]
         chosen = SimpleNamespace(hypothesis="property:current_efficiency", explained=explained, tests_after=flagged)
         tolerated = _small_form_error(chosen, settings)
-        return SparseRound(None, [], [], chosen, [], identifiable, None, "", form_tolerated=tolerated)
+        return SparseRound(
+            model=None,
+            tests=[],
+            ranking=[],
+            chosen=chosen,
+            equivalent=[],
+            identifiable=identifiable,
+            separated_by=None,
+            verdict="",
+            form_tolerated=tolerated,
+        )
 
     assert round_(0.97, 1.3).named == "property:current_efficiency" and round_(0.97, 1.3).form_incomplete
     assert round_(0.6, 1.3).named is None and not round_(0.6, 1.3).form_incomplete
@@ -556,7 +586,9 @@ def test_the_screen_sends_the_best_few_and_their_exact_ties_to_a_fit():
     from costa.discover.sparse.rounds import HypothesisScore
 
     def score(name, gain, rescued=0):
-        return HypothesisScore(SimpleNamespace(key=name), 1.0, 0.0, gain, rescued)
+        return HypothesisScore(
+            hypothesis=SimpleNamespace(key=name), scale=1.0, walk=0.0, log_likelihood_gain=gain, rescued=rescued
+        )
 
     settings = DiscoverySettings(partial_candidates=2)
     ranked = [score("a", 5.0), score("b", 3.0), score("c", 3.0), score("d", 1.0)]
@@ -607,7 +639,10 @@ def test_hypotheses_of_the_same_physics_are_fitted_once_as_the_one_named_first()
     keys = ["part:alf3_neutralisation", "input:u1", "term:alf3_mass", "part:electric_power", "input:u5"]
     keys += ["part:bubble_coverage", "term:bath_energy", "part:bath_conductivity"]
     scales = (1e-4, 0.05, 2e-4, 3.0, 1e-4, 1e-3, 3.0, 1e-3)
-    scores = [HypothesisScore(by_key[k], scale, 0.0, 1.0) for k, scale in zip(keys, scales, strict=True)]
+    scores = [
+        HypothesisScore(hypothesis=by_key[k], scale=scale, walk=0.0, log_likelihood_gain=1.0)
+        for k, scale in zip(keys, scales, strict=True)
+    ]
     rng = np.random.default_rng(2)
     x = NOMINAL_STATE * (1 + 0.02 * rng.standard_normal((30, 8)))
     u = np.array([2.0, 140000.0, 0.1, 0.0, 0.05]) * (1 + 0.02 * rng.random((30, 5)))
@@ -633,7 +668,7 @@ def test_a_trajectory_whose_filter_was_lost_leaves_the_closed_form_to_the_others
     delta = -0.002 - 0.02 * (c3 - 0.11)
     mean = np.concatenate([x, delta[..., None]], axis=-1)
     std = np.full(mean.shape, 1e-4)
-    obs = Observations(x[..., 5:6], trajectories.u, ("x6",), np.array([1.0]), 10.0)
+    obs = Observations(y=x[..., 5:6], u=trajectories.u, channels=("x6",), noise=np.array([1.0]), dt=10.0)
     (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
     settings = DiscoverySettings(bootstrap=20)
 
@@ -670,7 +705,7 @@ def test_the_refinement_combines_the_trajectories_whose_filter_holds():
     x = trajectories.x
     c3 = x[..., 2:3] / x[..., 1:4].sum(-1, keepdims=True)
     y = np.concatenate([c3, x[..., 5:6]], axis=-1) + np.random.default_rng(1).normal(0, [1e-4, 0.2], x.shape[:2] + (2,))
-    obs = Observations(y, trajectories.u, ("c3", "x6"), np.array([1e-4, 0.2]), 10.0)
+    obs = Observations(y=y, u=trajectories.u, channels=("c3", "x6"), noise=np.array([1e-4, 0.2]), dt=10.0)
     width = np.array([0.01])
     alone = refine_coefficients(model, term, constant, np.zeros(1), width, obs.subset(slice(1, None)))
     obs.u[0, 100, 1] = np.nan  # no line current logged: the model's rates are NaN from there
@@ -699,7 +734,9 @@ def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monke
         raise AssertionError("a hypothesis lost on half the cells was fitted")
 
     monkeypatch.setattr(search, "_closed_form", never)
-    score = HypothesisScore(SimpleNamespace(key="property:current_efficiency"), 1.0, 0.3, 1.0)
-    obs = Observations(np.zeros((12, 5, 1)), np.zeros((12, 5, 5)), ("U_cell",), np.ones(1), 10.0)
+    score = HypothesisScore(
+        hypothesis=SimpleNamespace(key="property:current_efficiency"), scale=1.0, walk=0.3, log_likelihood_gain=1.0
+    )
+    obs = Observations(y=np.zeros((12, 5, 1)), u=np.zeros((12, 5, 5)), channels=("U_cell",), noise=np.ones(1), dt=10.0)
     candidate = search._fit(score, true_model(), obs, DiscoverySettings(), 0, False, [])
     assert candidate.features == [] and candidate.corrected is None and candidate.samples.shape == (200, 0)

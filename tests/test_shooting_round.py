@@ -102,16 +102,36 @@ def test_an_unexplained_rounds_best_correction_is_applied_where_it_removes_half_
     starts, samples = np.tile(NOMINAL_STATE, (2, 2, 1)), {"U_cell": obs.y.shape[1] * 2}
 
     def shot(theta, cost, chi2):
-        return ShootingFit(np.array(theta), starts, cost, np.array([cost / 2] * 2), {"U_cell": chi2}, samples, 0, 1)
+        return ShootingFit(
+            theta=np.array(theta),
+            starts=starts,
+            cost=cost,
+            cell_cost=np.array([cost / 2] * 2),
+            chi2={"U_cell": chi2},
+            samples=samples,
+            lost=0,
+            iterations=1,
+        )
 
     base = shot([], 1000.0, 3.0)  # 2 noise variances in excess
     fit = shot([-100.0], 500.0, 3.0 - 2.0 * removed)
-    flagged = ChannelTest("U_cell", samples["U_cell"], 3.0, 30.0, 0.0, 0.0, 0.0, True)
-    form = ScreenedForm(h, (constant,), np.array([-100.0]), 500.0, 490.0, {"U_cell": 1.0})
-    screen = shooting_round.ShotScreen([flagged], base, [form], [form])
+    flagged = ChannelTest(
+        channel="U_cell",
+        samples=samples["U_cell"],
+        chi2_per_dof=3.0,
+        z=30.0,
+        bias=0.0,
+        bias_z=0.0,
+        whiteness_z=0.0,
+        flagged=True,
+    )
+    form = ScreenedForm(
+        hypothesis=h, features=(constant,), theta=np.array([-100.0]), gain=500.0, bic_gain=490.0, chi2={"U_cell": 1.0}
+    )
+    screen = shooting_round.ShotScreen(tests=[flagged], base=base, forms=[form], candidates=[form])
     settings = DiscoverySettings(shooting_cells=2, bootstrap=50)
     decided = shooting_round.decide_by_shooting(
-        model, screen, [shooting_round.ShotFit(fit, np.eye(1), [])], obs, settings
+        model, screen, [shooting_round.ShotFit(fit=fit, covariance=np.eye(1), tests=[])], obs, settings
     )
     assert decided.verdict.startswith("unexplained: the best correction, term:bath_energy")
     assert (decided.chosen is not None) == applied

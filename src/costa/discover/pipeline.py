@@ -143,11 +143,17 @@ def run_discovery(
     if incomplete_states(train) or incomplete_states(held_out):
         evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
         result = run_sparse_discovery(
-            train, held_out, start, settings, evaluation, declared_noise or {}, source, floor_rng, first_round,
+            train, held_out, start=start, settings=settings, evaluation=evaluation, declared_noise=declared_noise or {}, source=source, rng=floor_rng, first_round=first_round,
             restart_s=gap_restart_s(config, name),
         )  # fmt: skip
     else:
         result = run_full_state_discovery(
-            train, held_out, start, settings, lambda steps: gap_settings(config, name, steps), source, floor_rng
+            train,
+            held_out,
+            start=start,
+            settings=settings,
+            evaluation_for=lambda steps: gap_settings(config, name, steps),
+            source=source,
+            floor_rng=floor_rng,
         )
     return replace(result, constant_inputs=constant_inputs(train[list(INPUTS)].to_numpy()))

@@ -55,5 +55,5 @@ def costa_reference(
     network = train_costa(config, training_data(x, u, dt, "costa", start), start, name)
     forecasts = rollout_networks(network, xh, uh, dt, config["evaluation"]["copied_samples"]["networks"])
     evaluation = gap_settings(config, name, xh.shape[1])
-    gap, _ = gap_tables({"CoSTA reference": forecasts}, xh, uh, dt, state_scale(x), evaluation)
+    gap, _ = gap_tables({"CoSTA reference": forecasts}, xh, u=uh, dt=dt, scale=state_scale(x), settings=evaluation)
     return gap

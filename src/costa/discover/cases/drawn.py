@@ -226,8 +226,8 @@ def effect_case(effect: DrawnEffect) -> HiddenEffectCase:
     x, u = _operating_points()
     accepted = equivalent_names(effect, full, x, u) if effect.key else ()
     return HiddenEffectCase(
-        f"drawn{effect.seed}", effect.describe(), f"drawn: {effect.kind} ({effect.family})", "full", effect.noise,
-        changed_states(effect.true_model(full), full, x, u), accepted, effect.true_model,
+        name=f"drawn{effect.seed}", hidden=effect.describe(), kind=f"drawn: {effect.kind} ({effect.family})", starting="full", noise=effect.noise,
+        expected_equations=changed_states(effect.true_model(full), full, x, u), accepted=accepted, make_true=effect.true_model,
     )  # fmt: skip
 
 

@@ -39,7 +39,7 @@ def case_tables(
         stream = f"discovery/{case.name}/{split}"
         noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
         rng = seeds.numpy_generator(config["seed"], 0, noise)
-        tables.append(measure(true, x, u, settings.dt, sensor_set, rng, default))
+        tables.append(measure(true, x, u=u, dt=settings.dt, sensors=sensor_set, rng=rng, default_noise=default))
     return tables[0], tables[1]
 
 
@@ -58,7 +58,9 @@ def simulated_cells(config: Mapping, case: HiddenEffectCase, sensors: str, split
     true, _ = case.models(model_from_config(config["physics"])[0])
     count = _counts(config["discovery"], sensor_set)[split]
     stream = f"discovery/{case.name}/{split}"
-    trajectories, _ = simulate_set(true, settings, count, config["seed"], 0, stream, compiled=True)
+    trajectories, _ = simulate_set(
+        true, settings, n_trajectories=count, seed=config["seed"], replicate=0, stream_name=stream, compiled=True
+    )
     return trajectories.x, trajectories.u
 
 

@@ -47,45 +47,45 @@ TRUTHS: dict[str, Truth] = {
     # g1(c2, c3) at c2 = 0.03, c3 = 0.11: 966.725 degC (PBM: 968), gradient -473.36, -327.47 degC per unit fraction;
     # g1 enters the freezing rate and the heat flows with x6, x7 and x1
     "paper_liquidus": Truth(
-        _v("c2", "c3"), None,
-        {"part:liquidus_temperature": {"1": -1.2745, "(c2 - 0.03)": -473.36, "(c3 - 0.11)": -327.47}}, True,
+        variables=_v("c2", "c3"), also=None,
+        coefficients={"part:liquidus_temperature": {"1": -1.2745, "(c2 - 0.03)": -473.36, "(c3 - 0.11)": -327.47}}, first_order=True,
     ),
     "top_heat_loss": Truth(
-        _v("x6"), frozenset(),
-        {"term:bath_energy": _TOP_LOSS, "part:electric_power": _TOP_LOSS,
+        variables=_v("x6"), also=frozenset(),
+        coefficients={"term:bath_energy": _TOP_LOSS, "part:electric_power": _TOP_LOSS,
          "part:bath_ledge_heat": {k: -v for k, v in _TOP_LOSS.items()}},
     ),
     # 0.02 c3 exp((x6 - 970)/25) ~ 0.0022 + 0.02 (c3 - 0.11) + 0.000088 (x6 - 970) kg/s lost
     "alf3_evaporation": Truth(
-        _v("c3", "x6"), _v("c2", "m"),
-        {"term:alf3_mass": {"1": -0.0022, "(c3 - 0.11)": -0.02, "(x6 - 970)": -8.8e-5}}, True,
+        variables=_v("c3", "x6"), also=_v("c2", "m"),
+        coefficients={"term:alf3_mass": {"1": -0.0022, "(c3 - 0.11)": -0.02, "(x6 - 970)": -8.8e-5}}, first_order=True,
     ),
     # the wall's resistance is in the ledge-to-wall and wall-to-ambient flows (x7, x8, x1)
-    "wall_conductivity": Truth(_v("x8"), _v("x7", "x1"), {"property:wall_conductivity": {"(x8 - 580)": 0.004}}),
+    "wall_conductivity": Truth(variables=_v("x8"), also=_v("x7", "x1"), coefficients={"property:wall_conductivity": {"(x8 - 580)": 0.004}}),
     "alumina_dissolution": Truth(
-        _v("u1", "superheat"), _v("x6", "c2", "c3"),
-        {"term:alumina_mass": {"u1": -0.3, "u1*superheat": 0.015}},
+        variables=_v("u1", "superheat"), also=_v("x6", "c2", "c3"),
+        coefficients={"term:alumina_mass": {"u1": -0.3, "u1*superheat": 0.015}},
     ),
     # g2 exp(-3.5 (c3 - 0.11)) ~ g2 (1 - 3.5 (c3 - 0.11)); the bath's resistance heats with the current squared
     "conductivity_alf3": Truth(
-        _v("c3"), _v("u2", "u5", "c2", "x6", "m"), {"part:bath_conductivity": {"own*(c3 - 0.11)": -3.5}}, True
+        variables=_v("c3"), also=_v("u2", "u5", "c2", "x6", "m"), coefficients={"part:bath_conductivity": {"own*(c3 - 0.11)": -3.5}}, first_order=True
     ),
     # 8 % of the feed's command does not arrive: -0.08 u1 kg/s of alumina, and its impurities' share elsewhere
-    "alumina_feeder": Truth(_v("u1"), frozenset(), {"input:u1": {"1": -0.08}, "term:alumina_mass": {"u1": -0.08}}),
+    "alumina_feeder": Truth(variables=_v("u1"), also=frozenset(), coefficients={"input:u1": {"1": -0.08}, "term:alumina_mass": {"u1": -0.08}}),
     # 10 % of the logged tapping stays in the cell: +0.1 u4 kg/s of metal
-    "tapping_shortfall": Truth(_v("u4"), frozenset(), {"input:u4": {"1": -0.1}, "term:metal_mass": {"u4": 0.1}}),
+    "tapping_shortfall": Truth(variables=_v("u4"), also=frozenset(), coefficients={"input:u4": {"1": -0.1}, "term:metal_mass": {"u4": 0.1}}),
     "no_effect": Truth(frozenset(), frozenset()),
-    "printed_k4": Truth(_v("u1"), frozenset(), {"term:alf3_mass": {"u1": -0.016},
+    "printed_k4": Truth(variables=_v("u1"), also=frozenset(), coefficients={"term:alf3_mass": {"u1": -0.016},
                                                "part:alf3_neutralisation": {"u1": 0.016}}),
     # a heat capacity scales the whole net flow into the bath: every variable may appear in a flow form
-    "bath_heat_capacity": Truth(None, None, {"property:bath_heat_capacity": {"1": 0.1111}}),
+    "bath_heat_capacity": Truth(variables=None, also=None, coefficients={"property:bath_heat_capacity": {"1": 0.1111}}),
     # the efficiency scales the current's production and consumption (u2)
     "current_efficiency": Truth(
-        _v("x6"), _v("u2"), {"property:current_efficiency": {"(x6 - 970)": -0.005}}
+        variables=_v("x6"), also=_v("u2"), coefficients={"property:current_efficiency": {"(x6 - 970)": -0.005}}
     ),
     # the ledge's resistance is in every heat flow through it and in the freezing rate
     "ledge_conductivity": Truth(
-        _v("x7"), None, {"property:ledge_conductivity": {"(x7 - 820)": -0.002}}
+        variables=_v("x7"), also=None, coefficients={"property:ledge_conductivity": {"(x7 - 820)": -0.002}}
     ),
 }  # fmt: skip
 

@@ -27,18 +27,18 @@ def _varying(property_name: str, formula: str, fn):
 UNSHIPPED: dict[str, HiddenEffectCase] = {
     c.name: c
     for c in (
-        HiddenEffectCase("printed_k4", "k4 = 0.036 (printed) instead of 0.02", "a wrong constant", "full", 0.01,
-                         ("x3",), ("term:alf3_mass", "part:alf3_neutralisation"), _printed_k4),
-        HiddenEffectCase("bath_heat_capacity", "the bath's heat capacity 10 % lower", "a wrong property", "full", 0.01,
-                         ("x6",), ("property:bath_heat_capacity",),
-                         _varying("bath_heat_capacity", "0.1111", lambda v: 0.1111 + 0 * v.x6)),
-        HiddenEffectCase("current_efficiency", "current efficiency (1 - 0.005 (x6 - 970))", "an efficiency", "full",
-                         0.01, ("x2",), ("property:current_efficiency",),
-                         _varying("current_efficiency", "-0.005 (x6 - 970)", lambda v: -0.005 * (v.x6 - 970.0))),
-        HiddenEffectCase("ledge_conductivity", "k_sl (1 - 0.002 (x7 - 820))", "a state-dependent property", "full",
-                         0.01, ("x1", "x4", "x6", "x7", "x8"),
-                         ("property:ledge_conductivity", "property:ledge_density"),
-                         _varying("ledge_conductivity", "-0.002 (x7 - 820)", lambda v: -0.002 * (v.x7 - 820.0))),
+        HiddenEffectCase(name="printed_k4", hidden="k4 = 0.036 (printed) instead of 0.02", kind="a wrong constant", starting="full", noise=0.01,
+                         expected_equations=("x3",), accepted=("term:alf3_mass", "part:alf3_neutralisation"), make_true=_printed_k4),
+        HiddenEffectCase(name="bath_heat_capacity", hidden="the bath's heat capacity 10 % lower", kind="a wrong property", starting="full", noise=0.01,
+                         expected_equations=("x6",), accepted=("property:bath_heat_capacity",),
+                         make_true=_varying("bath_heat_capacity", "0.1111", lambda v: 0.1111 + 0 * v.x6)),
+        HiddenEffectCase(name="current_efficiency", hidden="current efficiency (1 - 0.005 (x6 - 970))", kind="an efficiency", starting="full",
+                         noise=0.01, expected_equations=("x2",), accepted=("property:current_efficiency",),
+                         make_true=_varying("current_efficiency", "-0.005 (x6 - 970)", lambda v: -0.005 * (v.x6 - 970.0))),
+        HiddenEffectCase(name="ledge_conductivity", hidden="k_sl (1 - 0.002 (x7 - 820))", kind="a state-dependent property", starting="full",
+                         noise=0.01, expected_equations=("x1", "x4", "x6", "x7", "x8"),
+                         accepted=("property:ledge_conductivity", "property:ledge_density"),
+                         make_true=_varying("ledge_conductivity", "-0.002 (x7 - 820)", lambda v: -0.002 * (v.x7 - 820.0))),
     )
 }  # fmt: skip
 

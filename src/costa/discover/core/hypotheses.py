@@ -211,22 +211,28 @@ def candidate_hypotheses(model: CellModel, constant: Sequence[str] = ()) -> list
     a gain read from the states, is then a source in the balances it enters that the term
     hypotheses already hold (with the line current and the anode distance constant, an
     anode-distance gain was named for a top heat loss)."""
-    hypotheses = [Hypothesis(f"part:{name}", "part", name, model.parts[name].unit) for name in PART_ORDER]
-    hypotheses += [Hypothesis(f"property:{name}", "property", name, "-") for name in PROPERTIES]
-    hypotheses += [Hypothesis(f"input:{name}", "input", name, "-") for name in INPUTS if name not in constant]
+    hypotheses = [
+        Hypothesis(key=f"part:{name}", kind="part", target=name, unit=model.parts[name].unit) for name in PART_ORDER
+    ]
+    hypotheses += [Hypothesis(key=f"property:{name}", kind="property", target=name, unit="-") for name in PROPERTIES]
+    hypotheses += [
+        Hypothesis(key=f"input:{name}", kind="input", target=name, unit="-") for name in INPUTS if name not in constant
+    ]
     for balance, (_, unit) in BALANCES.items():
-        hypotheses.append(Hypothesis(f"term:{balance}", "term", balance, unit, {balance: 1.0}))
+        hypotheses.append(
+            Hypothesis(key=f"term:{balance}", kind="term", target=balance, unit=unit, targets={balance: 1.0})
+        )
     names = list(BALANCES)
     for i, source in enumerate(names):
         for sink in names[i + 1 :]:
             if BALANCES[source][1] == BALANCES[sink][1]:
                 hypotheses.append(
                     Hypothesis(
-                        f"transfer:{source}->{sink}",
-                        "transfer",
-                        f"{source}->{sink}",
-                        BALANCES[source][1],
-                        {source: -1.0, sink: 1.0},
+                        key=f"transfer:{source}->{sink}",
+                        kind="transfer",
+                        target=f"{source}->{sink}",
+                        unit=BALANCES[source][1],
+                        targets={source: -1.0, sink: 1.0},
                     )
                 )
     return hypotheses

@@ -97,17 +97,23 @@ def feature_library(relative: bool, rich: bool = False) -> list[Feature]:
     linear = {name: _centred(name) for name in _VARIABLES}
     needs = {name: _NEEDS.get(name, frozenset()) for name in _VARIABLES}
     features = [Feature("1", lambda v, q, own: v.xp.ones_like(v.x1))]
-    features += [Feature(label, lambda v, q, own, f=f: f(v, q), needs[name]) for name, (label, f) in linear.items()]
+    features += [
+        Feature(name=label, fn=lambda v, q, own, f=f: f(v, q), needs=needs[name]) for name, (label, f) in linear.items()
+    ]
     for name in _SQUARED:
         label, f = linear[name]
-        features.append(Feature(f"{label}^2", lambda v, q, own, f=f: f(v, q) ** 2, needs[name]))
+        features.append(Feature(name=f"{label}^2", fn=lambda v, q, own, f=f: f(v, q) ** 2, needs=needs[name]))
     for a, b in [*_STATE_PRODUCTS, *product(_DRIVERS, _CONDITIONS)]:
         (la, fa), (lb, fb) = linear[a], linear[b]
-        features.append(Feature(f"{la}*{lb}", lambda v, q, own, fa=fa, fb=fb: fa(v, q) * fb(v, q), needs[a] | needs[b]))
+        features.append(
+            Feature(
+                name=f"{la}*{lb}", fn=lambda v, q, own, fa=fa, fb=fb: fa(v, q) * fb(v, q), needs=needs[a] | needs[b]
+            )
+        )
     if relative:
         features.append(Feature("own", lambda v, q, own: own))
         features += [
-            Feature(f"own*{label}", lambda v, q, own, f=f: own * f(v, q), needs[name])
+            Feature(name=f"own*{label}", fn=lambda v, q, own, f=f: own * f(v, q), needs=needs[name])
             for name, (label, f) in linear.items()
         ]
     if rich:
@@ -117,10 +123,12 @@ def feature_library(relative: bool, rich: bool = False) -> list[Feature]:
             label = f"{la}^2" if a == b else f"{la}*{lb}"
             need = needs[a] | needs[b]
             if label not in names:
-                features.append(Feature(label, lambda v, q, own, fa=fa, fb=fb: fa(v, q) * fb(v, q), need))
+                features.append(Feature(name=label, fn=lambda v, q, own, fa=fa, fb=fb: fa(v, q) * fb(v, q), needs=need))
             if relative:
                 features.append(
-                    Feature(f"own*{label}", lambda v, q, own, fa=fa, fb=fb: own * fa(v, q) * fb(v, q), need)
+                    Feature(
+                        name=f"own*{label}", fn=lambda v, q, own, fa=fa, fb=fb: own * fa(v, q) * fb(v, q), needs=need
+                    )
                 )
     return features
 

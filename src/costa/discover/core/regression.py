@@ -148,7 +148,14 @@ def stepwise(
     coefficients = solve_subset(G, b, selected)
     explained = float(b[selected] @ coefficients) if selected else 0.0
     coefficients = coefficients / norm[selected] if selected else coefficients
-    return Fit(tuple(selected), coefficients, zz - explained, zz, rows, baseline - bic(explained, len(selected)))
+    return Fit(
+        selected=tuple(selected),
+        coefficients=coefficients,
+        rss=zz - explained,
+        rss_baseline=zz,
+        rows=rows,
+        bic_gain=baseline - bic(explained, len(selected)),
+    )
 
 
 def resample_weights(groups: int, resamples: int, rng: np.random.Generator) -> np.ndarray:

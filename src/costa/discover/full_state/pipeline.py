@@ -58,7 +58,7 @@ def _data(train: pd.DataFrame, held_out: pd.DataFrame, source: str, window: int)
     x, u = arrays(train)
     xh, uh = arrays(held_out)
     _check_suitable(x, window, source)
-    return DiscoveryData(x, u, xh, uh, time_step(train))
+    return DiscoveryData(x=x, u=u, x_held_out=xh, u_held_out=uh, dt=time_step(train))
 
 
 def run_full_state_discovery(
@@ -87,10 +87,29 @@ def run_full_state_discovery(
     models = (
         {"starting model": start, "corrected model": corrected} if corrected is not start else {"starting model": start}
     )
-    gap, per_state = gap_tables(models, data.x_held_out, data.u_held_out, data.dt, scale, evaluation)
+    gap, per_state = gap_tables(
+        models, data.x_held_out, u=data.u_held_out, dt=data.dt, scale=scale, settings=evaluation
+    )
     # the held-out trajectories' own noise: their sensors (or their noise level) may differ
     held_out_noise = estimate_noise(data.x_held_out)
     floor = noise_floor(
-        corrected, data.x_held_out, data.u_held_out, data.dt, held_out_noise, scale, evaluation, floor_rng
+        corrected,
+        data.x_held_out,
+        u=data.u_held_out,
+        dt=data.dt,
+        noise=held_out_noise,
+        scale=scale,
+        settings=evaluation,
+        rng=floor_rng,
     )
-    return DiscoveryResult(rounds, noise, corrected, gap, per_state, floor, seconds, dict(evaluation.windows), data.dt)
+    return DiscoveryResult(
+        rounds=rounds,
+        noise=noise,
+        corrected=corrected,
+        gap=gap,
+        per_state=per_state,
+        floor=floor,
+        seconds=seconds,
+        windows=dict(evaluation.windows),
+        dt=data.dt,
+    )

@@ -264,13 +264,13 @@ def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: Discovery
             terms.pop(weakest)
             refined = None
         elif refined is None:
-            refined = _gauss_newton(problem, h, model, [library[kept[i]] for i in terms], centre,
-                                    settings.refine_iterations)  # fmt: skip
+            refined = _gauss_newton(problem, h, model=model, features=[library[kept[i]] for i in terms], xi=centre,
+                                    iterations=settings.refine_iterations)  # fmt: skip
         else:
             break
     names = [library[i].name for i in kept]
     candidate = Candidate(
-        h, [library[kept[i]] for i in terms], refined,
+        hypothesis=h, features=[library[kept[i]] for i in terms], coefficients=refined,
         inclusion={n: float(p) for n, p in zip(names, inclusion, strict=True) if p > 0}, samples=spread + refined,
     )  # fmt: skip
     return candidate
@@ -334,7 +334,17 @@ def discover_round(
     tests = equation_tests(z0 * problem.scale, problem.scale, settings.z_threshold, settings.min_excess)
     flagged = [i for i, t in enumerate(tests) if t.flagged]
     if not flagged:
-        return Round(model, tests, {}, [], None, [], "no equation disagrees with the data beyond noise", rich, window)
+        return Round(
+            model=model,
+            tests=tests,
+            where={},
+            ranking=[],
+            chosen=None,
+            equivalent=[],
+            verdict="no equation disagrees with the data beyond noise",
+            rich=rich,
+            window=window,
+        )
     hypotheses = candidate_hypotheses(model, constant_inputs(problem.left_u))
     screened = sorted(((problem.screen(h, model, z0, flagged), h) for h in hypotheses), key=lambda item: -item[0])
     # hypotheses with the same sensitivity tie exactly: keep ties together
@@ -345,9 +355,22 @@ def discover_round(
             f"unexplained: equations {[STATES[i] for i in flagged]} disagree beyond noise, but no hypothesis "
             f"could remove {settings.min_screen:.0%} of the excess residual even with a free value in every window"
         )
-        return Round(model, tests, _where(problem, model, z0, flagged), [], None, [], verdict, rich, window)
+        return Round(
+            model=model,
+            tests=tests,
+            where=_where(problem, model, z0, flagged),
+            ranking=[],
+            chosen=None,
+            equivalent=[],
+            verdict=verdict,
+            rich=rich,
+            window=window,
+        )
     seed = rng.integers(2**63)
-    ranking = [_score(problem, _fit(problem, h, model, settings, seed, rich), model, z0, flagged) for h in keep]
+    ranking = [
+        _score(problem, _fit(problem, h, model=model, settings=settings, seed=seed, rich=rich), model, z0, flagged)
+        for h in keep
+    ]
     ranking.sort(key=lambda c: -c.bic_gain)
     best = ranking[0].bic_gain
     good = [
@@ -366,12 +389,32 @@ def discover_round(
             f"unexplained: equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate "
             f"explains it: the best, {top.hypothesis.key}, {removal(top.explained, 'the excess residual')}"
         )
-        return Round(model, tests, where, ranking, None, [], verdict, rich, window)
+        return Round(
+            model=model,
+            tests=tests,
+            where=where,
+            ranking=ranking,
+            chosen=None,
+            equivalent=[],
+            verdict=verdict,
+            rich=rich,
+            window=window,
+        )
     with np.errstate(all="ignore"):
         reads = model.reads(problem.left_x[:1, :1], problem.left_u[:1, :1])
     chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
     verdict = f"{chosen.hypothesis.describe(model)}; the correction {removal(chosen.explained, 'the excess residual')}"
-    return Round(model, tests, where, ranking, chosen, equivalent, verdict, rich, window)
+    return Round(
+        model=model,
+        tests=tests,
+        where=where,
+        ranking=ranking,
+        chosen=chosen,
+        equivalent=equivalent,
+        verdict=verdict,
+        rich=rich,
+        window=window,
+    )
 
 
 def _first_disagreeing_scale(model, x, u, dt, noise, settings: DiscoverySettings, rng) -> _Problem:
@@ -386,7 +429,7 @@ def _first_disagreeing_scale(model, x, u, dt, noise, settings: DiscoverySettings
         form = WeakForm(settings.window * factor, dt)
         if form.windows(x.shape[1]) < 4:
             break
-        scale = form.noise_scale(model, x, u, noise, rng, settings.noise_draws)
+        scale = form.noise_scale(model, x, u=u, noise=noise, rng=rng, draws=settings.noise_draws)
         problem = _Problem(x, u, form, scale, settings)
         problems.append(problem)
         residual = problem.standardised_residual(model) * scale
@@ -408,9 +451,9 @@ def discover(
     current = model
     rich = False
     for _ in range(settings.max_rounds):
-        problem = _first_disagreeing_scale(current, x, u, dt, noise, settings, rng)
+        problem = _first_disagreeing_scale(current, x, u=u, dt=dt, noise=noise, settings=settings, rng=rng)
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
-        found = discover_round(current, problem, settings, rng, rich, named)
+        found = discover_round(current, problem, settings=settings, rng=rng, rich=rich, named=named)
         rounds.append(found)
         if found.chosen is None:
             break

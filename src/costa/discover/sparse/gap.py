@@ -38,7 +38,9 @@ def _rollout_from_estimate(model: CellModel, obs: Observations, start_steps: int
     searched on those samples too, under ``model``: nothing the rollout is scored on after them
     places its start, and each model starts where it would place the cell itself)."""
     early = obs.steps(0, start_steps).with_start(model)
-    estimated = estimate_states(model, early.y, early.u, early.channels, early.noise, early.dt, start=early.start)
+    estimated = estimate_states(
+        model, early.y, u=early.u, channels=early.channels, noise_std=early.noise, dt=early.dt, start=early.start
+    )
     channels, _ = CompiledModel(model, obs.dt, obs.channels, derivatives=False).march(estimated.mean[:, 0], obs.u)
     return channels
 

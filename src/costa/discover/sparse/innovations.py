@@ -82,7 +82,16 @@ def innovation_tests(
         significant = max(z, abs(bias_z), white) > z_threshold
         material = chi2 - 1 > min_excess or bias**2 > min_excess
         tests.append(
-            ChannelTest(name, count, chi2, float(z), bias, float(bias_z), white, bool(significant and material))
+            ChannelTest(
+                channel=name,
+                samples=count,
+                chi2_per_dof=chi2,
+                z=float(z),
+                bias=bias,
+                bias_z=float(bias_z),
+                whiteness_z=white,
+                flagged=bool(significant and material),
+            )
         )
     return tests
 

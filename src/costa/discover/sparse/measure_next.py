@@ -95,5 +95,9 @@ def measure_next(
         c = channels.index(sensor.channel)
         first = values[0][:, ::stride, c]
         separations = [_separation((first - other[:, ::stride, c]) / sensor.noise) for other in values[1:]]
-        found.append(Recommendation(sensor.channel, sensor.every_s, sensor.noise, float(min(separations))))
+        found.append(
+            Recommendation(
+                channel=sensor.channel, every_s=sensor.every_s, noise=sensor.noise, separation=float(min(separations))
+            )
+        )
     return sorted(found, key=lambda r: -r.separation)[:top]

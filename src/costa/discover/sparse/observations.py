@@ -29,16 +29,25 @@ class Observations:
 
     def subset(self, trajectories: np.ndarray | slice) -> Observations:
         start = None if self.start is None else self.start[trajectories]
-        return Observations(self.y[trajectories], self.u[trajectories], self.channels, self.noise, self.dt, start)
+        return Observations(
+            y=self.y[trajectories],
+            u=self.u[trajectories],
+            channels=self.channels,
+            noise=self.noise,
+            dt=self.dt,
+            start=start,
+        )
 
     def steps(self, begin: int, end: int) -> Observations:
         """Steps [begin, end) of every cell, their first state not yet searched."""
-        return Observations(self.y[:, begin:end], self.u[:, begin:end], self.channels, self.noise, self.dt)
+        return Observations(
+            y=self.y[:, begin:end], u=self.u[:, begin:end], channels=self.channels, noise=self.noise, dt=self.dt
+        )
 
     def with_start(self, model: CellModel) -> Observations:
         """These observations with each first state searched under ``model`` where one voltage
         sample cannot place it (:func:`.observed.searched_start`)."""
-        start = searched_start(model, self.y, self.u, self.channels, self.noise, self.dt)
+        start = searched_start(model, self.y, u=self.u, channels=self.channels, noise_std=self.noise, dt=self.dt)
         return dataclasses.replace(self, start=start)
 
     def searched_again(self, model: CellModel) -> Observations:

@@ -69,7 +69,7 @@ def observations(table: pd.DataFrame, declared_noise: Mapping[str, float], sourc
         noise = channel_noise(measured.values, measured.channels, declared_noise, measured.inputs)
     except ValueError as error:
         raise TrajectoryDataError(f"{source}: {error}") from None
-    return Observations(measured.values, measured.inputs, measured.channels, noise, measured.dt)
+    return Observations(y=measured.values, u=measured.inputs, channels=measured.channels, noise=noise, dt=measured.dt)
 
 
 def _estimation_windows(
@@ -146,7 +146,7 @@ def fit_first_round(
         return
     screen, searched = read_screen(screen_path, start)
     obs = replace(obs, start=searched)
-    fits = fit_share(screen, start, obs, settings, False, share)
+    fits = fit_share(screen, start, obs=obs, settings=settings, rich=False, share=share)
     write_fits(fits, range(len(screen.candidates))[share], path)
 
 
@@ -204,19 +204,23 @@ def run_sparse_discovery(
     scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)
     models = {"starting model": start} | ({"corrected model": corrected} if corrected is not start else {})
     restart = round(restart_s / held.dt) if restart_s else None
-    gap, per_channel = measured_gap(models, held, scale, evaluation, start_steps, restart)
-    floor = measured_noise_floor(corrected, held, scale, evaluation, start_steps, rng, restart)
+    gap, per_channel = measured_gap(
+        models, held, scale=scale, settings=evaluation, start_steps=start_steps, restart_steps=restart
+    )
+    floor = measured_noise_floor(
+        corrected, held, scale=scale, settings=evaluation, start_steps=start_steps, rng=rng, restart_steps=restart
+    )
     return SparseResult(
-        rounds,
-        obs.channels,
-        obs.noise,
-        corrected,
-        gap,
-        per_channel,
-        floor,
-        seconds,
-        dict(evaluation.windows),
-        obs.dt,
-        start_steps,
-        restart,
+        rounds=rounds,
+        channels=obs.channels,
+        noise=obs.noise,
+        corrected=corrected,
+        gap=gap,
+        per_state=per_channel,
+        floor=floor,
+        seconds=seconds,
+        windows=dict(evaluation.windows),
+        dt=obs.dt,
+        start_steps=start_steps,
+        restart_steps=restart,
     )

@@ -168,6 +168,8 @@ def channel_tests(
 ) -> tuple[list[ChannelTest], Smoothed]:
     """The model's innovation tests of each measured channel after the settling steps, from its filter
     (and smoother, where ``backward``) started at ``obs.start``."""
-    smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, backward, obs.start)
+    smoothed = estimate_states(
+        model, obs.y, u=obs.u, channels=obs.channels, noise_std=obs.noise, dt=obs.dt, backward=backward, start=obs.start
+    )
     settled = smoothed.innovation[:, obs.settling_steps :]
     return innovation_tests(settled, obs.channels, settings.z_threshold, settings.min_excess), smoothed

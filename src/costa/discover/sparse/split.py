@@ -132,7 +132,7 @@ def read_shot_screen(path: str | Path, model: CellModel) -> ShotScreen:
     forms = [_form(f, hypotheses) for f in record["forms"]]
     base = None if record["base"] is None else ShootingFit(**record["base"])
     tests = [ChannelTest(**t) for t in record["tests"]]
-    return ShotScreen(tests, base, forms, [forms[i] for i in record["candidates"]])
+    return ShotScreen(tests=tests, base=base, forms=forms, candidates=[forms[i] for i in record["candidates"]])
 
 
 def write_shot_fits(fits: Sequence[ShotFit], indices: Sequence[int], path: str | Path) -> None:
@@ -147,7 +147,7 @@ def write_shot_fits(fits: Sequence[ShotFit], indices: Sequence[int], path: str |
 def read_shot_fits(paths: Sequence[str | Path]) -> list[ShotFit]:
     """Every shooting fit of the fit jobs' records, in the screen's candidates' order."""
     return [
-        ShotFit(ShootingFit(**fit), covariance, [ChannelTest(**t) for t in tests])
+        ShotFit(fit=ShootingFit(**fit), covariance=covariance, tests=[ChannelTest(**t) for t in tests])
         for _, fit, covariance, tests in _rows(paths)
     ]
 

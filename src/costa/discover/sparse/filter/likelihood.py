@@ -80,7 +80,7 @@ def hypothesis_scales(
     the hypothesis is invisible to these sensors."""
 
     def strongest(which_rows, x, u):
-        y = _responses(model, hypotheses, which_rows, probe, x, u, obs)
+        y = _responses(model, hypotheses, which=which_rows, delta=probe, x=x, u=u, obs=obs)
         response = np.nan_to_num(np.abs(y[1:] - y[0]) / probe / obs.noise)  # noise stds per unit delta
         return np.sqrt(np.mean(response**2, axis=1)).max(-1)
 
@@ -185,13 +185,19 @@ def score_hypotheses(
     all the time), and where the hypothesis is right it scores best of all."""
     scales = hypothesis_scales(model, hypotheses, obs, window, states)
     n = obs.y.shape[0]
-    pairs, result = _filter(model, hypotheses, scales, obs, window, walks, backward=False)
+    pairs, result = _filter(model, hypotheses, scales=scales, obs=obs, window=window, walks=walks, backward=False)
     per_trajectory = result.log_likelihood.reshape(len(pairs), n)
     gains, rescued = likelihood_gains(per_trajectory[1:], per_trajectory[0])
     best: dict[int, HypothesisScore] = {}
     moving: dict[int, HypothesisScore] = {}  # the best step > 0 that holds
     for (j, walk), gain, held in zip(pairs[1:], gains, rescued, strict=True):
-        score = HypothesisScore(hypotheses[j], float(scales[j]), walk, float(gain), int(held))
+        score = HypothesisScore(
+            hypothesis=hypotheses[j],
+            scale=float(scales[j]),
+            walk=walk,
+            log_likelihood_gain=float(gain),
+            rescued=int(held),
+        )
         if j not in best or score.rank_key > best[j].rank_key:
             best[j] = score
         if walk > 0 and np.isfinite(gain) and (j not in moving or score.rank_key > moving[j].rank_key):
@@ -206,7 +212,9 @@ def score_hypotheses(
 def smooth_hypothesis(model: CellModel, score: HypothesisScore, obs: Observations, window: int) -> Smoothed:
     """Smoothed states and delta (in the hypothesis' own unit) of one hypothesis at its smoothing step."""
     walk = score.walk if score.smoothing_walk is None else score.smoothing_walk
-    _, result = _filter(model, [score.hypothesis], np.array([score.scale]), obs, window, [walk], backward=True)
+    _, result = _filter(
+        model, [score.hypothesis], scales=np.array([score.scale]), obs=obs, window=window, walks=[walk], backward=True
+    )
     result.mean[..., 8] *= score.scale
     result.std[..., 8] *= score.scale
     return result
@@ -249,7 +257,9 @@ def refine_coefficients(
         mean0 = np.column_stack([x0, np.tile(theta, (n, 1))])
         cov = np.zeros((8 + p, 8 + p))
         cov[:8, :8], cov[8:, 8:] = cov0, np.diag(width**2)
-        result = kernel.smooth(obs.y, obs.u, mean0, cov, process, obs.noise, backward=False)
+        result = kernel.smooth(
+            obs.y, obs.u, mean0=mean0, cov0=cov, process_std=process, noise_std=obs.noise, backward=False
+        )
         # in units of the prior widths, where the prior's precision is the identity (the
         # coefficients' own scales span many decades: a check in raw units tests rounding)
         means, covs = result.mean[:, -1, 8:] / width, result.final_cov[:, 8:, 8:] / np.outer(width, width)

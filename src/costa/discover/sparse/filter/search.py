@@ -173,7 +173,9 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
         samples = np.column_stack([samples, rng.standard_normal((len(samples), len(added))) * spread])
     while features:
         width = np.maximum(0.5 * np.abs(coefficients), 5 * samples.std(axis=0)) + 1e-300
-        refined = refine_coefficients(model, h, features, coefficients, width, obs, passes=1 if succeeded else 2)
+        refined = refine_coefficients(
+            model, h, features=features, coefficients=coefficients, width=width, obs=obs, passes=1 if succeeded else 2
+        )
         if refined is None:
             return (features, coefficients, samples) if succeeded else original
         (coefficients, covariance), succeeded = refined, True
@@ -261,13 +263,31 @@ def _fit(
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
     if mostly_lost(np.isfinite(smoothed.mean).all((1, 2))):
         log.info("%s: its filter is lost on half the trajectories or more, not fitted", score.hypothesis.key)
-        return SparseCandidate(score, smoothed.mean[..., :8], [], np.zeros(0), np.zeros((settings.bootstrap, 0)), {})
+        return SparseCandidate(
+            score=score,
+            states=smoothed.mean[..., :8],
+            features=[],
+            coefficients=np.zeros(0),
+            samples=np.zeros((settings.bootstrap, 0)),
+            inclusion={},
+        )
     rng = np.random.default_rng(seed)
-    *fit, inclusion = _closed_form(score.hypothesis, model, smoothed, obs, settings, rng, rich)
+    *fit, inclusion = _closed_form(
+        score.hypothesis, model, smoothed=smoothed, obs=obs, settings=settings, rng=rng, rich=rich
+    )
     features, coefficients, _ = fit
     placed = obs.searched_again(score.hypothesis.corrected(model, features, coefficients)) if features else obs
-    features, coefficients, samples = _refined(score.hypothesis, model, placed, fit, smoothed, rich, rng)
-    candidate = SparseCandidate(score, smoothed.mean[..., :8], features, coefficients, samples, inclusion)
+    features, coefficients, samples = _refined(
+        score.hypothesis, model, obs=placed, fit=fit, smoothed=smoothed, rich=rich, rng=rng
+    )
+    candidate = SparseCandidate(
+        score=score,
+        states=smoothed.mean[..., :8],
+        features=features,
+        coefficients=coefficients,
+        samples=samples,
+        inclusion=inclusion,
+    )
     if not features:
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
@@ -292,7 +312,9 @@ def _cut(candidate: SparseCandidate, budget: int, model: CellModel, settings: Di
     keep = np.sort(np.argsort(-strength, kind="stable")[:budget])
     features, coefficients = [candidate.features[i] for i in keep], candidate.coefficients[keep]
     width = np.maximum(0.5 * np.abs(coefficients), 5 * samples[:, keep].std(axis=0)) + 1e-300
-    refined = refine_coefficients(model, h, features, coefficients, width, candidate.placed)
+    refined = refine_coefficients(
+        model, h, features=features, coefficients=coefficients, width=width, obs=candidate.placed
+    )
     if refined is not None:
         coefficients = refined[0]
     corrected = h.corrected(model, features, coefficients)
@@ -321,11 +343,17 @@ def at_budget(
         (gain,), (held,) = likelihood_gains(cuts[b][None], base_likelihood)
         chosen_gain = 2 * gain - b * np.log(samples) if np.isfinite(gain) else -np.inf
         matched = bool(held < rival.rescued or chosen_gain - rival.bic_gain <= margin)
-        comparisons.append(BudgetComparison(rival.hypothesis.key, b, float(chosen_gain), rival.bic_gain, matched))
-        log.info(
-            "%s cut to %d terms: BIC gain %.1f against %s's %.1f%s",
-            chosen.hypothesis.key, b, chosen_gain, rival.hypothesis.key, rival.bic_gain, " (matched)" * matched,
-        )  # fmt: skip
+        comparisons.append(
+            BudgetComparison(
+                rival=rival.hypothesis.key,
+                terms=b,
+                chosen_gain=float(chosen_gain),
+                rival_gain=rival.bic_gain,
+                matched=matched,
+            )
+        )
+        against = f"{rival.hypothesis.key}'s {rival.bic_gain:.1f}" + " (matched)" * matched
+        log.info("%s cut to %d terms: BIC gain %.1f against %s", chosen.hypothesis.key, b, chosen_gain, against)
     return comparisons
 
 
@@ -366,12 +394,17 @@ def screen_round(
     tests, base = channel_tests(model, obs, settings)
     states = base.mean[:, ::16, :8]
     if not any(t.flagged for t in tests):
-        return Screen(tests, base.log_likelihood, states, [], 0)
+        return Screen(tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=[], seed=0)
     screen = slice(0, max(1, settings.screen_steps // obs.y.shape[1]))
     few, few_states = obs.subset(screen), base.mean[screen]
     started = time.perf_counter()
     screened, _ = score_hypotheses(
-        model, candidate_hypotheses(model, constant_inputs(obs.u)), few, settings.window, few_states, settings.walks
+        model,
+        candidate_hypotheses(model, constant_inputs(obs.u)),
+        obs=few,
+        window=settings.window,
+        states=few_states,
+        walks=settings.walks,
     )
     log.info(
         "screened %d hypotheses on %d trajectories in %.1f s", len(screened), len(few.y), time.perf_counter() - started
@@ -379,14 +412,17 @@ def screen_round(
     seed = int(rng.integers(2**63))
     screen_x, screen_u = (a[:, ::16].reshape(-1, a.shape[-1]) for a in (few_states, few.u))
     candidates = distinct_physics(best_screened(screened, settings), model, screen_x, screen_u, named)
-    return Screen(tests, base.log_likelihood, states, candidates, seed)
+    return Screen(tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=candidates, seed=seed)
 
 
 def fit_share(
     screen: Screen, model: CellModel, obs: Observations, settings: DiscoverySettings, rich: bool, share: slice
 ) -> list[SparseCandidate]:
     """The screen's candidates in ``share`` (e.g. ``slice(j, None, jobs)``: job j of ``jobs``), each fitted."""
-    return [_fit(s, model, obs, settings, screen.seed, rich, screen.tests) for s in screen.candidates[share]]
+    return [
+        _fit(s, model, obs=obs, settings=settings, seed=screen.seed, rich=rich, tests=screen.tests)
+        for s in screen.candidates[share]
+    ]
 
 
 def discover_round(
@@ -399,7 +435,14 @@ def discover_round(
 ) -> SparseRound:
     """One round on the current model (see the module docstring); ``named``: what earlier rounds named."""
     screen = screen_round(model, obs, settings, rng, named)
-    return decide_round(model, obs, settings, screen, fit_share(screen, model, obs, settings, rich, slice(None)), named)
+    return decide_round(
+        model,
+        obs,
+        settings=settings,
+        screen=screen,
+        ranking=fit_share(screen, model, obs=obs, settings=settings, rich=rich, share=slice(None)),
+        named=named,
+    )
 
 
 def decide_round(
@@ -414,7 +457,16 @@ def decide_round(
     (steps 3-6 of the module docstring)."""
     tests, flagged = screen.tests, screen.flagged
     if not flagged:
-        return SparseRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
+        return SparseRound(
+            model=model,
+            tests=tests,
+            ranking=[],
+            chosen=None,
+            equivalent=[],
+            identifiable=True,
+            separated_by=None,
+            verdict="no measured channel disagrees beyond noise",
+        )
     _score(ranking, screen.log_likelihood, int(np.isfinite(obs.y).sum()))
     ranking = sorted(ranking, key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)
@@ -433,7 +485,16 @@ def decide_round(
             verdict += f": the best, {top.hypothesis.key}, {outcome}"
         fitted = [c for c in ranking if c.corrected is not None][:3]
         return SparseRound(
-            model, tests, ranking, None, [], True, None, verdict, dispersion, measure_next=_next(fitted, obs)
+            model=model,
+            tests=tests,
+            ranking=ranking,
+            chosen=None,
+            equivalent=[],
+            identifiable=True,
+            separated_by=None,
+            verdict=verdict,
+            dispersion=dispersion,
+            measure_next=_next(fitted, obs),
         )
     x = screen.states  # every 16th step
     reads = model.reads(x[:1, :1], obs.u[:1, :1])
@@ -450,7 +511,19 @@ def decide_round(
     ]
     samples = int(np.isfinite(obs.y).sum())
     margin = settings.equivalence * dispersion
-    budget = at_budget(chosen, fewer, model, settings, screen.log_likelihood, samples, margin) if fewer else []
+    budget = (
+        at_budget(
+            chosen,
+            fewer,
+            model=model,
+            settings=settings,
+            base_likelihood=screen.log_likelihood,
+            samples=samples,
+            margin=margin,
+        )
+        if fewer
+        else []
+    )
     matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
     undecided = different + matched
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
@@ -484,8 +557,8 @@ def decide_round(
     effect = removal(chosen.explained, "the flagged channels' excess")
     verdict = f"{what}; the correction {effect}"
     return SparseRound(
-        model, tests, ranking, chosen, equivalent, not undecided, separated, verdict, dispersion, budget,
-        recommended, tolerated,
+        model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=equivalent, identifiable=not undecided, separated_by=separated, verdict=verdict, dispersion=dispersion, at_budget=budget,
+        measure_next=recommended, form_tolerated=tolerated,
     )  # fmt: skip
 
 
@@ -536,10 +609,10 @@ def discover_sparse(
             screen, fits = first_round
             if screen.candidates and int(rng.integers(2**63)) != screen.seed:
                 raise ValueError("the first round's screen was made with another discovery seed; run it again")
-            found = decide_round(current, placed, settings, screen, fits, named)
+            found = decide_round(current, placed, settings=settings, screen=screen, ranking=fits, named=named)
         else:
             # a round goes on only after a clean name (no channel left flagged): the basic library again
-            found = discover_round(current, placed, settings, rng, False, named)
+            found = discover_round(current, placed, settings=settings, rng=rng, rich=False, named=named)
         rounds.append(found)
         if found.named is None or found.form_incomplete:
             break

@@ -197,9 +197,11 @@ def filtered_starts(model: CellModel, obs: Observations, segment_s: float = 3600
     state it searches, :func:`..observed.searched_start`) at the first step of each ``segment_s`` [s];
     NaN where the filter lost the cell."""
     steps = max(1, round(segment_s / obs.dt))
-    start = searched_start(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt)
+    start = searched_start(model, obs.y, u=obs.u, channels=obs.channels, noise_std=obs.noise, dt=obs.dt)
     with np.errstate(all="ignore"):
-        smoothed = estimate_states(model, obs.y, obs.u, obs.channels, obs.noise, obs.dt, start=start).mean
+        smoothed = estimate_states(
+            model, obs.y, u=obs.u, channels=obs.channels, noise_std=obs.noise, dt=obs.dt, start=start
+        ).mean
     return smoothed[:, : (obs.y.shape[1] // steps) * steps : steps]
 
 
@@ -257,7 +259,17 @@ def shooting_fit(
     (:data:`CONTINUITY_STAGES`).  Given ``starts`` (n, S, 8) (another fit's), the ``stages`` from them."""
 
     def placed(start, theta, looseness, placing=0):
-        return Shooting.placed(model, hypothesis, features, obs, segment_s, placing, start, theta, looseness)
+        return Shooting.placed(
+            model,
+            hypothesis,
+            features=features,
+            obs=obs,
+            segment_s=segment_s,
+            iterations=placing,
+            starts=start,
+            theta=theta,
+            looseness=looseness,
+        )
 
     def run(fit, theta):
         return fit.result(fit.run(theta, iterations[1], hold_theta=False))
@@ -325,7 +337,16 @@ class Shooting:
         chi2, samples = self.channel_chi2(seg.misfit(self.out))
         lost = int((~self.active).sum())
         cells = self.cell_costs(self.res)
-        return ShootingFit(self.theta, starts, self.cost, cells, chi2, samples, lost, self.iterations + done)
+        return ShootingFit(
+            theta=self.theta,
+            starts=starts,
+            cost=self.cost,
+            cell_cost=cells,
+            chi2=chi2,
+            samples=samples,
+            lost=lost,
+            iterations=self.iterations + done,
+        )
 
     def channel_chi2(self, residual: np.ndarray) -> tuple[dict[str, float], dict[str, int]]:
         """Each channel's mean squared ``residual`` (R, steps, C) over its samples, and their count,

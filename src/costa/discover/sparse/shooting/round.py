@@ -95,7 +95,7 @@ def screen_by_shooting(model: CellModel, obs: Observations, settings: DiscoveryS
     """Steps 1-2 of the module docstring; ``obs`` with each cell's first state searched under ``model``."""
     tests, _ = channel_tests(model, obs, settings, backward=False)
     if not any(t.flagged for t in tests):
-        return ShotScreen(tests, None, [], [])
+        return ShotScreen(tests=tests, base=None, forms=[], candidates=[])
     few = shooting_cells(obs, settings.shooting_cells)
     return ShotScreen(tests, *screened_forms(model, candidate_hypotheses(model, constant_inputs(obs.u)), few, settings))
 
@@ -107,7 +107,16 @@ def screened_forms(
     hypothesis' screened form (best BIC gain first) and those that go on to a fit (step 2)."""
     iterations = settings.shooting_iterations
     base, forms = screen_forms(model, hypotheses, few, SEGMENT_S, iterations)
-    base = shooting_fit(model, None, [], few, SEGMENT_S, iterations, base.starts, stages=CONTINUITY_STAGES[1:])
+    base = shooting_fit(
+        model,
+        None,
+        features=[],
+        obs=few,
+        segment_s=SEGMENT_S,
+        iterations=iterations,
+        starts=base.starts,
+        stages=CONTINUITY_STAGES[1:],
+    )
     top = settings.shooting_refine
     chosen = {id(f): f for f in forms[:top] + by_excess(forms)[:top] if f.features}
     return base, forms, list(chosen.values())
@@ -125,8 +134,15 @@ def fit_by_shooting(
     few = shooting_cells(obs, settings.shooting_cells)
     fits = []
     for form in screen.candidates[share]:
-        fit = shooting_fit(model, form.hypothesis, form.features, few, SEGMENT_S, settings.shooting_iterations)
-        fits.append(_assessed(model, form.hypothesis, form.features, few, fit, settings))
+        fit = shooting_fit(
+            model,
+            form.hypothesis,
+            features=form.features,
+            obs=few,
+            segment_s=SEGMENT_S,
+            iterations=settings.shooting_iterations,
+        )
+        fits.append(_assessed(model, form.hypothesis, features=form.features, few=few, fit=fit, settings=settings))
     return fits
 
 
@@ -142,7 +158,7 @@ def _assessed(model, hypothesis, features, few: Observations, fit: ShootingFit, 
     tested = residual[:, 1:] if segments.count > 1 else residual  # as the fit's own chi2: after each first segment
     tests = innovation_tests(tested.reshape(segments.n, -1, len(few.channels)), few.channels, settings.z_threshold)
     tests = [replace(t, flagged=t.channel in fit.beyond_noise) for t in tests]
-    return ShotFit(fit, np.linalg.pinv(schur), tests)
+    return ShotFit(fit=fit, covariance=np.linalg.pinv(schur), tests=tests)
 
 
 def decide_by_shooting(
@@ -155,7 +171,16 @@ def decide_by_shooting(
 def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings) -> SparseRound:
     tests, flagged = screen.tests, screen.flagged
     if not flagged:
-        return SparseRound(model, tests, [], None, [], True, None, "no measured channel disagrees beyond noise")
+        return SparseRound(
+            model=model,
+            tests=tests,
+            ranking=[],
+            chosen=None,
+            equivalent=[],
+            identifiable=True,
+            separated_by=None,
+            verdict="no measured channel disagrees beyond noise",
+        )
     few = shooting_cells(obs, settings.shooting_cells)
     base, cells = screen.base, f"cells 0-{settings.shooting_cells - 1}"
     penalty = float(np.log(int(np.isfinite(few.y).sum())))
@@ -165,16 +190,31 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         h, features, fit = form.hypothesis, list(form.features), shot.fit
         corrected = h.corrected(model, features, fit.theta)
         gain = base.cost - fit.cost - len(features) * penalty
-        fitted.append(FittedForm(h, form.features, fit, gain, base.cell_cost - fit.cell_cost, corrected))
+        fitted.append(
+            FittedForm(
+                hypothesis=h,
+                features=form.features,
+                fit=fit,
+                bic_gain=gain,
+                cell_gains=base.cell_cost - fit.cell_cost,
+                corrected=corrected,
+            )
+        )
         samples = rng.multivariate_normal(fit.theta, shot.covariance, size=settings.bootstrap, method="eigh")
         states = Segments(model, h, features, few, round(SEGMENT_S / few.dt)).path(fit.starts.reshape(-1, 8), fit.theta)
         candidates[id(fitted[-1])] = SparseCandidate(
-            HypothesisScore(h, 1.0, 0.0, form.gain / 2), states, features, fit.theta, samples, None, corrected,
-            shot.tests, None, gain, 0, 1.0 - fit.excess / base.excess if base.excess > 0 else 0.0,
+            score=HypothesisScore(hypothesis=h, scale=1.0, walk=0.0, log_likelihood_gain=form.gain / 2), states=states, features=features, coefficients=fit.theta, samples=samples, inclusion=None, corrected=corrected,
+            tests_after=shot.tests, log_likelihood=None, bic_gain=gain, rescued=0, explained=1.0 - fit.excess / base.excess if base.excess > 0 else 0.0,
         )  # fmt: skip
     hourly = few.u[:, :: round(SEGMENT_S / few.dt)]
     ranking = ranked_fits(
-        fitted, model, base.starts.reshape(-1, 8), hourly.reshape(-1, 5), penalty, base.excess, settings
+        fitted,
+        model,
+        x=base.starts.reshape(-1, 8),
+        u=hourly.reshape(-1, 5),
+        penalty=penalty,
+        excess_before=base.excess,
+        settings=settings,
     )
     paying = [candidates[id(f)] for f in ranking.order]
     order = paying + sorted((c for c in candidates.values() if c not in paying), key=lambda c: -c.bic_gain)
@@ -187,7 +227,17 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             f"unexplained: channels {flagged} disagree beyond noise, but no closed form fitted on {cells} pays "
             "its terms in every cell"
         )
-        return SparseRound(model, tests, order, None, [], True, None, verdict, measure_next=next_measured(order[:3]))
+        return SparseRound(
+            model=model,
+            tests=tests,
+            ranking=order,
+            chosen=None,
+            equivalent=[],
+            identifiable=True,
+            separated_by=None,
+            verdict=verdict,
+            measure_next=next_measured(order[:3]),
+        )
     chosen = candidates[id(ranking.equivalent[0])]
     equivalent = [candidates[id(f)] for f in ranking.equivalent[1:] + ranking.rivals]
     rivals = [candidates[id(f)] for f in ranking.rivals]
@@ -203,7 +253,15 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         )
         recommended = next_measured([chosen, *(c for c in order if c is not chosen)][:3])
         return SparseRound(
-            model, tests, order, chosen if applied else None, [], True, None, verdict, measure_next=recommended
+            model=model,
+            tests=tests,
+            ranking=order,
+            chosen=chosen if applied else None,
+            equivalent=[],
+            identifiable=True,
+            separated_by=None,
+            verdict=verdict,
+            measure_next=recommended,
         )
     if rivals:
         recommended = next_measured([chosen, *rivals])
@@ -212,7 +270,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         verdict += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
         separated = recommended[0].channel if recommended else None
         return SparseRound(
-            model, tests, order, chosen, equivalent, False, separated, f"{verdict}; the correction {effect}",
+            model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, identifiable=False, separated_by=separated, verdict=f"{verdict}; the correction {effect}",
             measure_next=recommended,
         )  # fmt: skip
     name = _hypothesis(model, ranking.names[0])
@@ -226,7 +284,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
         what += f" (form incomplete: its closed form leaves {left} times the noise variance on {cells})"
     return SparseRound(
-        model, tests, order, chosen, equivalent, True, None, f"{what}; the correction {effect}",
+        model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, identifiable=True, separated_by=None, verdict=f"{what}; the correction {effect}",
         form_tolerated=ranking.incomplete, name=None if name == chosen.hypothesis else name,
     )  # fmt: skip
 

@@ -135,8 +135,18 @@ def screen_forms(
     overshot, and the right hypothesis ranked lower on 4 of 5 plant records (alumina_feeder 22nd by
     BIC gain against 6th)."""
     loose = CONTINUITY_STAGES[:1]
-    fitted = shooting_fit(model, None, [], obs, segment_s, iterations, stages=loose)
-    base, _ = Shooting.placed(model, None, [], obs, segment_s, 0, fitted.starts, None, loose[0])
+    fitted = shooting_fit(model, None, features=[], obs=obs, segment_s=segment_s, iterations=iterations, stages=loose)
+    base, _ = Shooting.placed(
+        model,
+        None,
+        features=[],
+        obs=obs,
+        segment_s=segment_s,
+        iterations=0,
+        starts=fitted.starts,
+        theta=None,
+        looseness=loose[0],
+    )
     base.out, base.ends, base.res, base.cost = base.evaluate(base.starts, np.zeros(0))
     *_, states_out, states_ends = base.segments.integrate(base.starts, np.zeros(0), "all")
     seg = base.segments
@@ -148,7 +158,7 @@ def screen_forms(
     for h in hypotheses:
         features = screen_terms(h)
         step = _steps(model, h, features, rows, u0)
-        own = Segments(model, h, features, obs, seg.steps, step, derivatives=False)
+        own = Segments(model, h, features=features, obs=obs, steps=seg.steps, step=step, derivatives=False)
         *_, dout, dends = own.integrate(rows, np.zeros(len(features)), "coefficients")
         shot = Shooting(own, rows)
         shot.active, shot.sigma, shot.res = base.active, base.sigma, base.res
@@ -165,8 +175,8 @@ def screen_forms(
         chi2, _ = base.channel_chi2(base.res[0] + change)
         forms.append(
             ScreenedForm(
-                h, tuple(features[k] for k in chosen), theta * step[chosen], gain, gain - len(chosen) * penalty,
-                chi2,
+                hypothesis=h, features=tuple(features[k] for k in chosen), theta=theta * step[chosen], gain=gain, bic_gain=gain - len(chosen) * penalty,
+                chi2=chi2,
             )
         )  # fmt: skip
     return fitted, sorted(forms, key=lambda f: -f.bic_gain)
@@ -274,7 +284,7 @@ def ranked_fits(
         key=lambda f: (not good(f), -f.bic_gain if good(f) else round(f.fit.excess, 1), -f.bic_gain),
     )
     if not order or not good(order[0]):
-        return Ranking(order, order[:1], [], [f.hypothesis.key for f in order[:1]])
+        return Ranking(order=order, equivalent=order[:1], rivals=[], names=[f.hypothesis.key for f in order[:1]])
     first = order[0]
     close = [f for f in order if good(f) and first.bic_gain - f.bic_gain < MARGIN]
     same = [f for f in close if f is first or same_physics(f.corrected, first.corrected, model, x, u)]
@@ -290,4 +300,10 @@ def ranked_fits(
     if also:
         items = [*named, *(SimpleNamespace(hypothesis=hypotheses[key], features=first.features) for key in also)]
         keys = [f.hypothesis.key for f in naming_order(items, (), reads, terms=lambda f: len(f.features))]
-    return Ranking(order, named, [f for f in close if f not in same], keys, not first.fit.at_noise)
+    return Ranking(
+        order=order,
+        equivalent=named,
+        rivals=[f for f in close if f not in same],
+        names=keys,
+        incomplete=not first.fit.at_noise,
+    )
