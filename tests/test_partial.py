@@ -14,6 +14,7 @@ from costa.config import load_config
 from costa.discover.cases.shipped import CASES
 from costa.discover.cases.tables import case_tables
 from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.naming import fit_outcome
 from costa.discover.core.settings import DiscoverySettings
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.pipeline import run_discovery, starting_model
@@ -23,7 +24,6 @@ from costa.discover.sparse.innovations import innovation_tests
 from costa.discover.sparse.observations import Observations, channel_noise
 from costa.discover.sparse.observed import estimate_states
 from costa.discover.sparse.pipeline import SparseResult, observations
-from costa.discover.sparse.rounds import fit_outcome
 from costa.observe import observe
 from costa.physics import true_model
 from costa.plots import plot_discovery

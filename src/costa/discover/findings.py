@@ -10,11 +10,8 @@ import pandas as pd
 
 from ..variables import MEANING, STATES, UNIT
 from .core.fitted_terms import KEEP_LEVEL
-from .core.naming import removal
-from .full_state.pipeline import DiscoveryResult
-from .full_state.search import Candidate, Round
-from .sparse.pipeline import SparseResult
-from .sparse.rounds import SparseRound, fit_outcome
+from .core.naming import fit_outcome, removal
+from .core.outcome import Outcome, Round
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)
@@ -22,7 +19,7 @@ LEVELS = (0.95, KEEP_LEVEL)
 __all__ = ["findings", "findings_markdown"]
 
 
-def _candidate(candidate: Candidate, model) -> dict[str, Any]:
+def _candidate(candidate, model) -> dict[str, Any]:
     h = candidate.hypothesis
     return {
         "hypothesis": h.key,
@@ -104,7 +101,7 @@ def _sparse_candidate(c, model) -> dict[str, Any]:
     }
 
 
-def _sparse_round(index: int, r: SparseRound) -> dict[str, Any]:
+def _sparse_round(index: int, r: Round) -> dict[str, Any]:
     """A round on partial measurements: channel tests instead of equation tests."""
     found: dict[str, Any] = {
         "round": index,
@@ -178,7 +175,7 @@ def _sparse_round(index: int, r: SparseRound) -> dict[str, Any]:
     return found
 
 
-#: how a round on partial measurements was decided (:attr:`.sparse.rounds.SparseRound.route`)
+#: how a round on partial measurements was decided (its ``route``: :attr:`.sparse.rounds.SparseRound.route`)
 DECIDED_BY = {
     "filter": "each hypothesis' free delta smoothed by the filter on every cell, its closed form regressed on it and "
     "refined on the measured channels, the corrected models compared by the BIC gain of their filter's likelihood",
@@ -218,7 +215,7 @@ def _unlogged(u: str, value: float) -> str:
 
 
 def findings(
-    result: DiscoveryResult | SparseResult,
+    result: Outcome,
     name: str,
     start,
     meta: Mapping[str, Any],
@@ -232,7 +229,7 @@ def findings(
     recorded when given.  A run on partial measurements tests channels, not equations,
     and may find an explanation it cannot name (``identifiable`` False).
     """
-    partial = isinstance(result, SparseResult)
+    partial = result.measured == "partial"
     rounds = [(_sparse_round if partial else _round)(i + 1, r) for i, r in enumerate(result.rounds)]
     named = [r["named"]["hypothesis"] for r in rounds if r["named"]]
     unidentified = [r for r in rounds if partial and not r["identifiable"] and r["correction"]]

@@ -11,7 +11,7 @@ from ...physics import BALANCES, PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
 from .hypotheses import PREFERENCE, Hypothesis
 
-__all__ = ["balance_moved", "causes_through", "naming_order", "removal", "same_physics"]
+__all__ = ["balance_moved", "causes_through", "fit_outcome", "naming_order", "removal", "same_physics"]
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
 SAME_PHYSICS = 0.05
@@ -126,3 +126,13 @@ def causes_through(part: str, model: CellModel, x: np.ndarray, u: np.ndarray) ->
         if np.isfinite(moved).all() and (moved != 0).all():
             causes.append(cause)
     return causes
+
+
+def fit_outcome(fitted: bool, explained: float, scored: bool) -> str:
+    """What a candidate's correction did to the flagged channels' excess, in words, or why it has
+    none: not ``fitted`` (its filter lost on half the cells or more, or no term held), or not
+    ``scored`` (the corrected filter lost a cell that the uncorrected model's holds)."""
+    if not fitted:
+        return "could not be fitted (its filter was lost on half the cells or more, or no term held)"
+    effect = removal(explained)
+    return effect if scored else f"{effect}, but its filter is lost on a cell the uncorrected model's holds"

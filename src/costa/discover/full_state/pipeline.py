@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import pandas as pd
@@ -33,6 +34,7 @@ class DiscoveryData:
 
 @dataclass
 class DiscoveryResult:
+    measured: ClassVar[str] = "full"  # every state (:class:`..core.outcome.Outcome`)
     rounds: list[Round]
     noise: np.ndarray
     corrected: CellModel

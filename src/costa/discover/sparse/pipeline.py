@@ -15,6 +15,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 import pandas as pd
@@ -47,6 +48,7 @@ __all__ = ["SparseResult", "fit_first_round", "observations", "run_sparse_discov
 class SparseResult:
     """What a run on partial measurements found; ``noise`` (C,) per measured channel."""
 
+    measured: ClassVar[str] = "partial"  # some channels (:class:`..core.outcome.Outcome`)
     rounds: list[SparseRound]
     channels: tuple[str, ...]
     noise: np.ndarray

@@ -19,7 +19,6 @@ from ...physics import CellModel
 from ..core.fitted_terms import FittedTerms
 from ..core.hypotheses import Hypothesis
 from ..core.library import Feature
-from ..core.naming import removal
 from ..core.settings import DiscoverySettings
 from .innovations import ChannelTest, innovation_tests
 from .measure_next import Recommendation
@@ -27,7 +26,7 @@ from .observations import Observations
 from .observed import estimate_states
 
 __all__ = [
-    "BudgetComparison", "HypothesisScore", "SparseCandidate", "SparseRound", "channel_tests", "fit_outcome",
+    "BudgetComparison", "HypothesisScore", "SparseCandidate", "SparseRound", "channel_tests",
 ]  # fmt: skip
 
 
@@ -151,16 +150,6 @@ class SparseRound:
     @property
     def corrected(self) -> CellModel | None:
         return self.chosen.corrected if self.chosen is not None else None
-
-
-def fit_outcome(fitted: bool, explained: float, scored: bool) -> str:
-    """What a candidate's correction did to the flagged channels' excess, in words, or why it has
-    none: not ``fitted`` (its filter lost on half the cells or more, or no term held), or not
-    ``scored`` (the corrected filter lost a cell that the uncorrected model's holds)."""
-    if not fitted:
-        return "could not be fitted (its filter was lost on half the cells or more, or no term held)"
-    effect = removal(explained)
-    return effect if scored else f"{effect}, but its filter is lost on a cell the uncorrected model's holds"
 
 
 def channel_tests(

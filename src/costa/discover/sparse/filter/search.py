@@ -48,7 +48,7 @@ from ....physics import CellModel
 from ...core.fitted_terms import KEEP_LEVEL, weakest_term
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ...core.naming import naming_order, removal, same_physics
+from ...core.naming import fit_outcome, naming_order, removal, same_physics
 from ...core.regression import (
     GramSystem,
     coefficient_samples,
@@ -61,7 +61,7 @@ from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest
 from ..measure_next import Recommendation, measure_next
 from ..observations import Observations
-from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests, fit_outcome
+from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests
 from .likelihood import (
     likelihood_gains,
     mostly_lost,

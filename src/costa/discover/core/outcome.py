@@ -1,0 +1,46 @@
+"""What every route's discovery returns: the contract the findings are written from.
+
+A run gives an :class:`Outcome`: its rounds, the corrected model, the noise, the gap before and
+after on the held-out data, and which kind of measurements it searched (``measured``: "full",
+every state; "partial", some channels).  A round is a :class:`Round`: the model it started from,
+its ranking of fitted candidates, the one chosen (or none), those equivalent to it and its
+verdict.  The full-state route (:mod:`..full_state`) and the sparse routes (:mod:`..sparse`)
+each produce them; :mod:`..findings` reads nothing else.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol
+
+import numpy as np
+import pandas as pd
+
+from ...physics import CellModel
+
+__all__ = ["Outcome", "Round"]
+
+
+class Round(Protocol):
+    model: CellModel
+    ranking: Sequence[Any]
+    chosen: Any | None
+    equivalent: Sequence[Any]
+    verdict: str
+
+    @property
+    def flagged(self) -> list[str]: ...
+
+
+class Outcome(Protocol):
+    measured: str  # "full" (every state) or "partial" (some channels, possibly sparse)
+    rounds: Sequence[Round]
+    noise: np.ndarray
+    corrected: CellModel
+    gap: pd.DataFrame
+    per_state: pd.DataFrame
+    floor: Mapping[str, float]
+    seconds: float
+    windows: Mapping[str, tuple[int, int]]
+    dt: float
+    constant_inputs: tuple[str, ...]
