@@ -122,6 +122,14 @@ class SparseRound:
     name: Hypothesis | None = None  # what the chosen correction is named as, where not its own hypothesis
     route: str = "filter"  # how the round was decided: "filter" (:mod:`.filter`) or "shooting" (:mod:`.shooting`)
 
+    @classmethod
+    def quiet(cls, model: CellModel, tests: list[ChannelTest]) -> SparseRound:
+        """A round in which no measured channel disagrees beyond noise: nothing to explain."""
+        return cls(
+            model=model, tests=tests, ranking=[], chosen=None, equivalent=[], identifiable=True, separated_by=None,
+            verdict="no measured channel disagrees beyond noise",
+        )  # fmt: skip
+
     @property
     def flagged(self) -> list[str]:
         return [t.channel for t in self.tests if t.flagged]

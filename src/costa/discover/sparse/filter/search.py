@@ -457,16 +457,7 @@ def decide_round(
     (steps 3-6 of the module docstring)."""
     tests, flagged = screen.tests, screen.flagged
     if not flagged:
-        return SparseRound(
-            model=model,
-            tests=tests,
-            ranking=[],
-            chosen=None,
-            equivalent=[],
-            identifiable=True,
-            separated_by=None,
-            verdict="no measured channel disagrees beyond noise",
-        )
+        return SparseRound.quiet(model, tests)
     _score(ranking, screen.log_likelihood, int(np.isfinite(obs.y).sum()))
     ranking = sorted(ranking, key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)

@@ -171,16 +171,7 @@ def decide_by_shooting(
 def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings) -> SparseRound:
     tests, flagged = screen.tests, screen.flagged
     if not flagged:
-        return SparseRound(
-            model=model,
-            tests=tests,
-            ranking=[],
-            chosen=None,
-            equivalent=[],
-            identifiable=True,
-            separated_by=None,
-            verdict="no measured channel disagrees beyond noise",
-        )
+        return SparseRound.quiet(model, tests)
     few = shooting_cells(obs, settings.shooting_cells)
     base, cells = screen.base, f"cells 0-{settings.shooting_cells - 1}"
     penalty = float(np.log(int(np.isfinite(few.y).sum())))
