@@ -730,7 +730,7 @@ def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monke
     smoothed = Smoothed(mean, mean, np.zeros((12, 5, 1)), np.zeros(12), None)
     monkeypatch.setattr(search, "smooth_hypothesis", lambda *args: smoothed)
 
-    def never(*args):
+    def never(*args, **kwargs):
         raise AssertionError("a hypothesis lost on half the cells was fitted")
 
     monkeypatch.setattr(search, "_closed_form", never)

@@ -43,11 +43,11 @@ def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_conf
     screen_first_round(train, start, settings, noise, "test", screen)
     fitted = {}
 
-    def fitted_once(model, hypothesis, features, few, segment_s, iterations):
+    def fitted_once(model, hypothesis, features, obs, segment_s, iterations):
         key = (hypothesis.key, tuple(f.name for f in features))
         if key not in fitted:
-            fitted[key] = (few.y, shooting_fit(model, hypothesis, features, few, segment_s, iterations))
-        assert np.array_equal(fitted[key][0], few.y, equal_nan=True)
+            fitted[key] = (obs.y, shooting_fit(model, hypothesis, features, obs, segment_s, iterations))
+        assert np.array_equal(fitted[key][0], obs.y, equal_nan=True)
         return fitted[key][1]
 
     shooting_fit = shooting_round.shooting_fit
