@@ -55,8 +55,11 @@ def _round(index: int, r: Round) -> dict[str, Any]:
             state: [{"variable": v, "spearman": round(c, 3)} for v, c in items] for state, items in r.where.items()
         },
         "verdict": r.verdict,
+        "identifiable": r.identifiable,
         "named": None,
+        "correction": None,
         "equivalent": [_candidate(c, r.model) for c in r.equivalent],
+        "not_fitted": [{"hypothesis": h.key, "description": h.describe(r.model)} for h in r.not_fitted],
         "alternatives": [_candidate(c, r.model) for c in r.ranking if c is not r.chosen and c not in r.equivalent][:5],
     }
     if r.chosen is not None:
@@ -72,7 +75,8 @@ def _round(index: int, r: Round) -> dict[str, Any]:
             k: v for k, v in sorted(r.chosen.inclusion.items(), key=lambda kv: -kv[1]) if k not in chosen_terms
         }
         named["chi2_after"] = {k: round(v, 3) for k, v in r.chosen.chi2_after.items()}
-        found["named"] = named
+        found["correction"] = named
+        found["named"] = named if r.named is not None else None
     return found
 
 
@@ -232,7 +236,7 @@ def findings(
     partial = result.measured == "partial"
     rounds = [(_sparse_round if partial else _round)(i + 1, r) for i, r in enumerate(result.rounds)]
     named = [r["named"]["hypothesis"] for r in rounds if r["named"]]
-    unidentified = [r for r in rounds if partial and not r["identifiable"] and r["correction"]]
+    unidentified = [r for r in rounds if not r["identifiable"] and r["correction"]]
     first = rounds[0]
     if named:
         outcome = "found"
@@ -409,11 +413,12 @@ def _round_lines(r: Mapping[str, Any]) -> list[str]:
         lines.append(
             f"- {state}'s residual follows " + ", ".join(f"{i['variable']} (rho {i['spearman']:+.2f})" for i in items)
         )
-    if r["named"]:
-        n = r["named"]
+    if r["correction"]:
+        n = r["correction"]
+        title = "Named" if r["named"] else "Best-fitting correction (applied, not named: not identifiable)"
         lines += [
             "",
-            f"**Named**: `{n['hypothesis']}`: {n['description']}",
+            f"**{title}**: `{n['hypothesis']}`: {n['description']}",
             "",
             f"Correction [{n['unit']}]: `{n['closed_form']}`",
             "",
@@ -422,6 +427,9 @@ def _round_lines(r: Mapping[str, Any]) -> list[str]:
     if r["equivalent"]:
         lines += ["", "Equivalent under these measurements (the data cannot tell them apart):"]
         lines += [f"- `{c['hypothesis']}`: `{c['closed_form']}`" for c in r["equivalent"]]
+    if r["not_fitted"]:
+        lines += ["", "Other physics the screen could not exclude, not fitted:"]
+        lines += [f"- `{h['hypothesis']}`: {h['description']}" for h in r["not_fitted"]]
     if r["alternatives"]:
         lines += ["", "Runners-up:"]
         lines += [

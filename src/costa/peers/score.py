@@ -42,10 +42,10 @@ class Answer(dict):
 
 def ours_answer(found: Mapping[str, Any], start: CellModel) -> Answer:
     """Our discovery's answer, read from its findings.json; the corrected model rebuilt from the
-    named closed forms round by round (hypothesis, terms, coefficients)."""
+    applied closed forms round by round (hypothesis, terms, coefficients), named or not identifiable."""
     model, terms, texts = start, [], []
     for r in found["rounds"]:
-        named = r["named"]
+        named = r["correction"]  # applied, whether or not the data could name it
         if not named:
             continue
         hypothesis = next(h for h in candidate_hypotheses(model) if h.key == named["hypothesis"])

@@ -28,7 +28,7 @@ def _stages(rounds) -> list[tuple[str, dict[str, float]]]:
         )
         for r in rounds
     ]
-    last = rounds[-1]["named"]
+    last = rounds[-1]["correction"]
     return stages + ([("after the last correction", last["chi2_after"])] if last else [])
 
 

@@ -3,9 +3,10 @@
 A run gives an :class:`Outcome`: its rounds, the corrected model, the noise, the gap before and
 after on the held-out data, and which kind of measurements it searched (``measured``: "full",
 every state; "partial", some channels).  A round is a :class:`Round`: the model it started from,
-its ranking of fitted candidates, the one chosen (or none), those equivalent to it and its
-verdict.  The full-state route (:mod:`..full_state`) and the sparse routes (:mod:`..sparse`)
-each produce them; :mod:`..findings` reads nothing else.
+its ranking of fitted candidates, the one chosen (or none), those equivalent to it, whether the
+data tell it from them (``identifiable``) and its verdict.  The full-state route
+(:mod:`..full_state`) and the sparse routes (:mod:`..sparse`) each produce them; :mod:`..findings`
+reads nothing else.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ class Round(Protocol):
     chosen: Any | None
     equivalent: Sequence[Any]
     verdict: str
+    identifiable: bool  # False: an explanation of other physics is as good as the chosen one; nothing is named
 
     @property
     def flagged(self) -> list[str]: ...

@@ -17,7 +17,11 @@ One round:
    call strong) the cause is named before its consequences (a part before the parts
    computed from it), then the simplest (fewest terms, then an input before a flow
    before a part correction, then the most elementary part); the others are reported as
-   equivalent explanations, the rest as runners-up.  In later rounds an effect named
+   equivalent explanations, the rest as runners-up; where one of them is different physics
+   (:func:`..core.naming.decide`, the rule of every route), or a hypothesis that was not fitted
+   moves other balances and its free delta removes as much
+   (:func:`..core.naming.unfitted_rivals`), nothing is named: the round is not identifiable,
+   the best correction is applied and the rounds stop.  In later rounds an effect named
    before is refined rather than a new one introduced unless the new one gains clearly
    more (``new_mechanism_margin``): what is left after a first closed form is usually the
    curvature that form missed, and any flow into the same balance can mimic it;
@@ -37,7 +41,7 @@ from ...variables import STATES
 from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
 from ..core.hypotheses import Hypothesis, candidate_hypotheses
 from ..core.library import Feature, constant_inputs
-from ..core.naming import naming_order, removal
+from ..core.naming import decide, removal, unfitted_rivals
 from ..core.noise import estimate_noise
 from ..core.regression import (
     GramSystem,
@@ -87,10 +91,17 @@ class Round:
     verdict: str
     rich: bool = False
     window: int = 0  # steps per weak-form window of this round's tests
+    identifiable: bool = True  # False: an explanation of other physics is as good; ``chosen`` corrects, unnamed
+    not_fitted: list[Hypothesis] = field(default_factory=list)  # other physics the screen left standing, unfitted
 
     @property
     def flagged(self) -> list[str]:
         return [t.state for t in self.tests if t.flagged]
+
+    @property
+    def named(self) -> Hypothesis | None:
+        """The chosen explanation, where the data tell it from every other as good (:func:`..core.naming.decide`)."""
+        return self.chosen.hypothesis if self.chosen is not None and self.identifiable else None
 
 
 def _groups(n: int, windows: int, blocks: int) -> np.ndarray:
@@ -160,8 +171,13 @@ class _Problem:
         agreeing = np.ones(8, bool)
         agreeing[list(flagged)] = False
         removed = removed[~agreeing].sum() + min(removed[agreeing].sum(), 0.0)
-        excess = sum(max(float((z[..., i] ** 2).sum()) - z[..., i].size, 0.0) for i in flagged)
+        excess = _excess(z, flagged)
         return (removed - (denominator > 0).sum()) / excess if excess > 0 else 0.0
+
+
+def _excess(z: np.ndarray, flagged: Sequence[int]) -> float:
+    """The flagged equations' chi-square beyond noise (standardised residuals z (..., 8))."""
+    return sum(max(float((z[..., i] ** 2).sum()) - z[..., i].size, 0.0) for i in flagged)
 
 
 def _chi2(z: np.ndarray) -> dict[str, float]:
@@ -400,10 +416,29 @@ def discover_round(
             rich=rich,
             window=window,
         )
-    with np.errstate(all="ignore"):
-        reads = model.reads(problem.left_x[:1, :1], problem.left_u[:1, :1])
-    chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
-    verdict = f"{chosen.hypothesis.describe(model)}; the correction {removal(chosen.explained, 'the excess residual')}"
+    x, u = problem.left_x[:, ::16], problem.left_u[:, ::16]
+    chosen, equivalent, rivals = decide(good, named, model, x, u)
+    # not fitted, and the screen cannot tell from the chosen: its free delta removes as much, within the margin
+    shares, fitted = {h.key: share for share, h in screened}, {h.key for h in keep}
+    reach = shares[chosen.hypothesis.key] - settings.equivalence / _excess(z0, flagged)
+    unfitted = [h for share, h in screened if share >= reach and h.key not in fitted]
+    not_fitted = unfitted_rivals(chosen, unfitted, model, x, u)
+    effect = removal(chosen.explained, "the excess residual")
+    what = chosen.hypothesis.describe(model)
+    if rivals:
+        keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
+        what = (
+            f"not identifiable: {keys} explain the equations equally well (within {settings.equivalence:g} of BIC "
+            f"gain), and they are different physics; the best fit, {chosen.hypothesis.key}, is applied"
+        )
+    elif not_fitted:
+        what = f"not identifiable: the best fit, {chosen.hypothesis.key}, is applied"
+    if not_fitted:
+        what += (
+            f" ({', '.join(h.key for h in not_fitted)}: other physics, not fitted, that the screen could not "
+            f"exclude: a free delta along it removes as much of the excess, within {settings.equivalence:g} of "
+            "chi-square)"
+        )
     return Round(
         model=model,
         tests=tests,
@@ -411,9 +446,11 @@ def discover_round(
         ranking=ranking,
         chosen=chosen,
         equivalent=equivalent,
-        verdict=verdict,
+        verdict=f"{what}; the correction {effect}",
         rich=rich,
         window=window,
+        identifiable=not (rivals or not_fitted),
+        not_fitted=not_fitted,
     )
 
 
@@ -441,7 +478,8 @@ def _first_disagreeing_scale(model, x, u, dt, noise, settings: DiscoverySettings
 def discover(
     model: CellModel, x: np.ndarray, u: np.ndarray, dt: float, settings: DiscoverySettings
 ) -> tuple[list[Round], np.ndarray]:
-    """Rounds of discovery until no equation disagrees, nothing explains it, or ``max_rounds``.
+    """Rounds of discovery until no equation disagrees, nothing explains it, a round cannot name what
+    explains it (its best correction applied, as on sparse data), or ``max_rounds``.
 
     Returns the rounds and the estimated measurement noise (8,).
     """
@@ -455,7 +493,7 @@ def discover(
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
         found = discover_round(current, problem, settings=settings, rng=rng, rich=rich, named=named)
         rounds.append(found)
-        if found.chosen is None:
+        if found.chosen is None or not found.identifiable:  # a later round would build on an unnamed cause
             break
         current = found.chosen.corrected
         # a closed form that leaves its own equations disagreeing: try richer forms next

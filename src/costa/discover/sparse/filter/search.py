@@ -48,7 +48,7 @@ from ....physics import CellModel
 from ...core.fitted_terms import KEEP_LEVEL, weakest_term
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ...core.naming import fit_outcome, naming_order, removal, same_physics
+from ...core.naming import decide, fit_outcome, naming_order, removal, same_physics
 from ...core.regression import (
     GramSystem,
     coefficient_samples,
@@ -488,9 +488,7 @@ def decide_round(
             measure_next=_next(fitted, obs),
         )
     x = screen.states  # every 16th step
-    reads = model.reads(x[:1, :1], obs.u[:1, :1])
-    chosen, *equivalent = naming_order(good, named, reads, terms=lambda c: len(c.features))
-    different = [c for c in equivalent if not same_physics(c.corrected, chosen.corrected, model, x, obs.u[:, ::16])]
+    chosen, equivalent, different = decide(good, named, model, x, obs.u[:, ::16])
     fewer = [
         c
         for c in ranking

@@ -23,7 +23,7 @@ import numpy as np
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from ...core.naming import balance_moved, causes_through, naming_order, same_physics
+from ...core.naming import balance_moved, causes_through, decide, naming_order
 from ...core.settings import DiscoverySettings
 from ..observations import Observations
 from ..observed import PRIOR_STD
@@ -255,7 +255,7 @@ def ranked_fits(
     settings: DiscoverySettings | None = None,
 ) -> Ranking:
     """The fits ranked and the first's rivals (:class:`Ranking`); physics compared at the states x
-    (N, 8) and inputs u (N, 5) (:func:`...core.naming.same_physics`).  A fit pays where every cell pays
+    (N, 8) and inputs u (N, 5) by :func:`...core.naming.decide`, the rule of every route.  A fit pays where every cell pays
     its share of the terms' price (``penalty``, log(samples), a term): an effect missing from the
     model is missing in every cell, and a gain that one cell alone carries fits that cell's own
     misplacement.  On tapping_shortfall's first two cells a wall heat capacity in c2 gained 1 and 226
@@ -287,9 +287,8 @@ def ranked_fits(
         return Ranking(order=order, equivalent=order[:1], rivals=[], names=[f.hypothesis.key for f in order[:1]])
     first = order[0]
     close = [f for f in order if good(f) and first.bic_gain - f.bic_gain < MARGIN]
-    same = [f for f in close if f is first or same_physics(f.corrected, first.corrected, model, x, u)]
-    reads = model.reads(x[:1], u[:1])
-    named = naming_order(same, (), reads, terms=lambda f: len(f.features))
+    chosen, others, rivals = decide(close, (), model, x, u)
+    named = [chosen, *(f for f in others if all(f is not r for r in rivals))]
     keys = [f.hypothesis.key for f in named]
     balance = balance_moved(first.corrected, model, x, u) if first.hypothesis.is_flow else None
     also = [f"term:{balance}"] if balance is not None else []
@@ -299,11 +298,12 @@ def ranked_fits(
     also = [key for key in also if key not in keys and key in hypotheses]
     if also:
         items = [*named, *(SimpleNamespace(hypothesis=hypotheses[key], features=first.features) for key in also)]
+        reads = model.reads(x[:1], u[:1])
         keys = [f.hypothesis.key for f in naming_order(items, (), reads, terms=lambda f: len(f.features))]
     return Ranking(
         order=order,
         equivalent=named,
-        rivals=[f for f in close if f not in same],
+        rivals=rivals,
         names=keys,
         incomplete=not first.fit.at_noise,
     )

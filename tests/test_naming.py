@@ -1,0 +1,49 @@
+"""The rule every route names by (:func:`costa.discover.core.naming.decide`), against the balances."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.naming import decide, unfitted_rivals
+from costa.physics import operating_points
+
+
+def _constant(model, key: str, value: float) -> SimpleNamespace:
+    """A fitted correction of one constant term (``value`` in the hypothesis' unit)."""
+    h = next(h for h in candidate_hypotheses(model) if h.key == key)
+    constant = next(f for f in h.features() if f.name == "1")
+    return SimpleNamespace(hypothesis=h, features=[constant], corrected=h.corrected(model, [constant], [value]))
+
+
+def test_a_transfer_is_a_rival_of_a_flow_into_one_of_its_balances(model):
+    """0.1 g/s more AlF3 is, to every state, 0.1 g/s less AlF3 neutralised (the same physics, and
+    the flow, a single term, is named first); 0.1 g/s of AlF3 from the ledge or into the cryolite
+    moves a second balance: other physics, which leaves the round unnamed while it fits alike."""
+    x, u = operating_points(np.random.default_rng(0), 20)
+    flow = _constant(model, "term:alf3_mass", 1e-4)
+    neutralised = _constant(model, "part:alf3_neutralisation", -1e-4)
+    from_ledge = _constant(model, "transfer:ledge_mass->alf3_mass", 1e-4)
+    to_cryolite = _constant(model, "transfer:alf3_mass->cryolite_mass", -1e-4)
+
+    chosen, others, rivals = decide([neutralised, flow], (), model, x, u)
+    assert chosen is flow and others == [neutralised] and rivals == []
+    chosen, others, rivals = decide([from_ledge, neutralised, flow, to_cryolite], (), model, x, u)
+    assert chosen is flow and rivals == [from_ledge, to_cryolite]
+    # a hypothesis named in an earlier round is refined first, and judged against the same rivals
+    chosen, _, rivals = decide([flow, from_ledge], ["transfer:ledge_mass->alf3_mass"], model, x, u)
+    assert chosen is from_ledge and rivals == [flow]
+
+
+def test_an_unfitted_hypothesis_the_screen_left_is_a_rival_where_it_moves_other_balances(model):
+    """A bath conductivity 1 % higher moves the bath temperature's rate alone (through the Joule
+    heat); the line current reaching the cell also moves the alumina and metal balances (Faraday's
+    law), and stands against it unfitted; a flow into the bath energy moves what the conductivity
+    moves, and does not."""
+    x, u = operating_points(np.random.default_rng(0), 20)
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    conductivity = _constant(model, "part:bath_conductivity", 0.01)
+    unfitted = [hypotheses["input:u2"], hypotheses["term:bath_energy"]]
+    assert unfitted_rivals(conductivity, unfitted, model, x, u) == [hypotheses["input:u2"]]
