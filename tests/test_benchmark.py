@@ -25,6 +25,7 @@ from costa.discover.cases.drawn import (
     split_cases,
 )
 from costa.discover.cases.unshipped import find_case
+from costa.discover.rates import how_often_right
 from costa.discover.summary import judged
 from costa.integrate import rk4_step
 from costa.physics import operating_points, true_model
@@ -139,8 +140,25 @@ def test_rates_count_names_right_over_names_given_and_over_effects():
     assert row.precision == pytest.approx(6 / 9) and row.recall == pytest.approx(6 / 10)
     assert row.false_alarm_rate == pytest.approx(1 / 4)
     assert (row.precision_low, row.precision_high) == pytest.approx(wilson(6, 9))
+    assert (row.strong_effects, row.strong_right) == (2, 2)  # signal >= 100 noise units: 200 and 2000
     curve = recall_by_signal(table, [0, 3, 10, 100, np.inf])
     assert curve.effects.tolist() == [4, 2, 2, 2] and curve.right.tolist() == [1, 1, 2, 2]
+
+
+def test_a_findings_page_quotes_the_published_test_rates_of_its_route_and_nothing_else(tmp_path):
+    """The plant and pot line sets for the shooting route, in words with their intervals; a dev run's
+    rates are never quoted, and without a published file a page says nothing."""
+    verdicts = ["right"] * 3 + ["wrong"] + ["missed"] * 2
+    table = pd.DataFrame({"sensors": ["plant"] * 6 + ["pot_line"] * 6, "verdict": verdicts * 2, "kind": "term",
+                          "seconds": 1.0, "signal": [500.0, 500, 50, 500, 500, 5] * 2})  # fmt: skip
+    published = tmp_path / "rates.csv"
+    rates(table).assign(split=["test", "dev"], size="quick").to_csv(published, index=False)
+    (sentence,) = how_often_right("shooting", published)
+    low, high = wilson(3, 4)
+    assert sentence.startswith("on the benchmark's plant records (6 drawn cases of its test seeds, quick size)")
+    assert f"a name was right in 3 of 4 (75%, 95 % interval {low:.0%}-{high:.0%})" in sentence
+    assert sentence.endswith("effects above 100 noise units were named right in 2 of 4 (50%, 95 % interval 15%-85%)")
+    assert how_often_right("full", published) == [] and how_often_right("full", tmp_path / "none.csv") == []
 
 
 def test_a_benchmark_size_naming_an_unknown_sensor_set_is_refused(default_config):

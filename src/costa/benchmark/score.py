@@ -17,6 +17,7 @@ import pandas as pd
 from scipy.stats import binomtest
 
 from ..discover.cases.drawn import DRAWN_NAME, draw_effect
+from ..discover.rates import STRONG_SIGNAL
 from ..discover.summary import judged
 
 __all__ = [
@@ -58,7 +59,8 @@ def case_table(
 
 
 def rates(table: pd.DataFrame, order: Sequence[str] | None = None) -> pd.DataFrame:
-    """Per sensor set: the counts, precision and recall with their Wilson 95 % intervals, and seconds a case."""
+    """Per sensor set: the counts, precision, recall and the recall on strong effects (signal >= :data:`STRONG_SIGNAL`)
+    with their Wilson 95 % intervals, and seconds a case."""
     rows = []
     for sensor_set, group in table.groupby("sensors", sort=False):
         count = group.verdict.value_counts()
@@ -66,7 +68,11 @@ def rates(table: pd.DataFrame, order: Sequence[str] | None = None) -> pd.DataFra
         right, names = int(count.get("right", 0)), int(count.reindex(["right", "wrong", "false name"]).fillna(0).sum())
         row: dict = {"sensors": sensor_set, "cases": len(group), "effects": effects, "nulls": nulls}
         row |= {verdict: int(count.get(verdict, 0)) for verdict in _COUNTED}
+        strong = group[(group.kind != "none") & (group.signal >= STRONG_SIGNAL)]
         row |= _rate("precision", right, names) | _rate("recall", right, effects)
+        strong_right = int((strong.verdict == "right").sum())
+        row |= {"strong_effects": len(strong), "strong_right": strong_right}
+        row |= _rate("strong_recall", strong_right, len(strong))
         row |= _rate("false_alarm_rate", int(count.get("false alarm", 0) + count.get("false name", 0)), nulls)
         row |= {"median_seconds": float(group.seconds.median()), "total_seconds": float(group.seconds.sum())}
         rows.append(row)

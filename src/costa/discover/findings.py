@@ -12,6 +12,7 @@ from ..variables import MEANING, STATES, UNIT
 from .core.fitted_terms import KEEP_LEVEL
 from .core.naming import fit_outcome, removal
 from .core.outcome import Outcome, Round
+from .rates import how_often_right
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)
@@ -284,6 +285,7 @@ def findings(
         **extra,
         "starting_model": start.name,
         "outcome": outcome,
+        "how_often_right": how_often_right(result.rounds[0].route if partial else "full"),
         **measured,
         "named": named,
         "noise_estimate": noise,
@@ -331,6 +333,10 @@ def findings_markdown(f: Mapping[str, Any]) -> str:
         f"**Outcome**: {f['outcome']}.",
         "",
     ]
+    if f.get("how_often_right"):
+        lines += ["**How often a name is right** (the discovery benchmark, docs/discovery.md):", ""]
+        lines += [f"- {sentence}" for sentence in f["how_often_right"]]
+        lines.append("")
     if f.get("inputs_that_did_not_vary"):
         lines += ["**Inputs that did not vary** (what this record cannot decide):", ""]
         lines += [f"- {i['input']} ({i['meaning']}): {i['consequence']}" for i in f["inputs_that_did_not_vary"]]
