@@ -257,15 +257,27 @@ def _config(default_config, overrides):
     return config
 
 
+#: shipped cases whose truth a rival of other physics fits as well on every state: the feeder's
+#: shortfall also feeds 8 % less AlF3 and cryolite, 2-3 % of the feed, below those balances' noise,
+#: so an alumina flow proportional to the feed fits alike; the truth is applied, not named
+NOT_IDENTIFIABLE = {"alumina_feeder": "term:alumina_mass"}
+
+
 def _check(found, case: HiddenEffectCase):
     assert set(found["flagged_equations"]) == set(case.expected_equations), found["rounds"][0]["equations"]
     if not case.accepted:
         assert found["outcome"] == "no effect" and not found["named"]
         return
-    assert found["named"] and found["named"][0] in case.accepted, found["named"]
+    if case.name in NOT_IDENTIFIABLE:
+        first = found["rounds"][0]
+        assert found["outcome"] == "not identifiable" and not found["named"], found["named"]
+        assert first["correction"]["hypothesis"] in case.accepted, first["correction"]["hypothesis"]
+        assert NOT_IDENTIFIABLE[case.name] in {c["hypothesis"] for c in first["equivalent"]}
+    else:
+        assert found["named"] and found["named"][0] in case.accepted, found["named"]
     assert found["gap"]["shrink_above_noise_floor"]["long"] >= 0.8, found["gap"]
     # what is kept agrees with what is reported: no kept term's interval covers zero
-    kept = [c for r in found["rounds"] if r["named"] for c in r["named"]["coefficients"]]
+    kept = [c for r in found["rounds"] if r["correction"] for c in r["correction"]["coefficients"]]
     assert all(c["ci99"][0] > 0 or c["ci99"][1] < 0 for c in kept), kept
     assert all(c["ci99"][0] <= c["ci95"][0] <= c["value"] <= c["ci95"][1] <= c["ci99"][1] for c in kept), kept
 
@@ -288,7 +300,7 @@ def test_shipped_case_at_reduced_size(default_config, case):
     found = _run(_config(default_config, REDUCED), case)
     _check(found, CASES[case])
     if case in KNOWN:  # exactly the true terms are kept, each within 5 % of its value
-        coefficients = {c["term"]: c["value"] for c in found["rounds"][0]["named"]["coefficients"]}
+        coefficients = {c["term"]: c["value"] for c in found["rounds"][0]["correction"]["coefficients"]}
         assert coefficients.keys() == KNOWN[case].keys(), coefficients
         assert all(abs(coefficients[t] - v) <= 0.05 * abs(v) for t, v in KNOWN[case].items()), coefficients
 
