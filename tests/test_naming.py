@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from costa.discover.core.hypotheses import candidate_hypotheses
-from costa.discover.core.naming import decide, unfitted_rivals
+from costa.discover.core.naming import decide
 from costa.physics import operating_points
 
 
@@ -35,15 +35,3 @@ def test_a_transfer_is_a_rival_of_a_flow_into_one_of_its_balances(model):
     # a hypothesis named in an earlier round is refined first, and judged against the same rivals
     chosen, _, rivals = decide([flow, from_ledge], ["transfer:ledge_mass->alf3_mass"], model, x, u)
     assert chosen is from_ledge and rivals == [flow]
-
-
-def test_an_unfitted_hypothesis_the_screen_left_is_a_rival_where_it_moves_other_balances(model):
-    """A bath conductivity 1 % higher moves the bath temperature's rate alone (through the Joule
-    heat); the line current reaching the cell also moves the alumina and metal balances (Faraday's
-    law), and stands against it unfitted; a flow into the bath energy moves what the conductivity
-    moves, and does not."""
-    x, u = operating_points(np.random.default_rng(0), 20)
-    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    conductivity = _constant(model, "part:bath_conductivity", 0.01)
-    unfitted = [hypotheses["input:u2"], hypotheses["term:bath_energy"]]
-    assert unfitted_rivals(conductivity, unfitted, model, x, u) == [hypotheses["input:u2"]]

@@ -60,7 +60,6 @@ def _round(index: int, r: Round) -> dict[str, Any]:
         "named": None,
         "correction": None,
         "equivalent": [_candidate(c, r.model) for c in r.equivalent],
-        "not_fitted": [{"hypothesis": h.key, "description": h.describe(r.model)} for h in r.not_fitted],
         "alternatives": [_candidate(c, r.model) for c in r.ranking if c is not r.chosen and c not in r.equivalent][:5],
     }
     if r.chosen is not None:
@@ -433,9 +432,6 @@ def _round_lines(r: Mapping[str, Any]) -> list[str]:
     if r["equivalent"]:
         lines += ["", "Equivalent under these measurements (the data cannot tell them apart):"]
         lines += [f"- `{c['hypothesis']}`: `{c['closed_form']}`" for c in r["equivalent"]]
-    if r["not_fitted"]:
-        lines += ["", "Other physics the screen could not exclude, not fitted:"]
-        lines += [f"- `{h['hypothesis']}`: {h['description']}" for h in r["not_fitted"]]
     if r["alternatives"]:
         lines += ["", "Runners-up:"]
         lines += [

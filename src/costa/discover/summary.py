@@ -68,10 +68,7 @@ def judged(f) -> str:
         return "right" if named[0] in accepted else "wrong"
     if f["outcome"].startswith("not identifiable"):
         listed = {
-            c["hypothesis"]
-            for r in f["rounds"]
-            for c in [r.get("correction") or {}, *r.get("equivalent", []), *r.get("not_fitted", [])]
-            if c
+            c["hypothesis"] for r in f["rounds"] for c in [r.get("correction") or {}, *r.get("equivalent", [])] if c
         }
         return "not identifiable, truth listed" if listed & set(accepted) else "not identifiable, truth not listed"
     return "unexplained" if flagged else "missed"

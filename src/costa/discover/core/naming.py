@@ -11,16 +11,7 @@ from ...physics import BALANCES, PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
 from .hypotheses import PREFERENCE, Hypothesis
 
-__all__ = [
-    "balance_moved",
-    "causes_through",
-    "decide",
-    "fit_outcome",
-    "moved_rates",
-    "naming_order",
-    "removal",
-    "same_physics",
-]
+__all__ = ["balance_moved", "causes_through", "decide", "fit_outcome", "naming_order", "removal", "same_physics"]
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
 SAME_PHYSICS = 0.05
@@ -91,8 +82,8 @@ def decide(close: Sequence, named: Sequence[str], model: CellModel, x: np.ndarra
     every route follows.  Returns (chosen, others, rivals): the first in :func:`naming_order`
     (``named``: the keys earlier rounds named), the others in that order, and those of them whose
     physics differs from the chosen one's (:func:`same_physics` at the states x (..., 8) and
-    inputs u (..., 5)).  While a rival stands (or one the screen left unfitted,
-    :func:`unfitted_rivals`), nothing is named: the chosen correction is the best fit, not the
+    inputs u (..., 5)).  While a rival stands, nothing is named (and a route fits every hypothesis
+    its screen cannot exclude before it decides): the chosen correction is the best fit, not the
     cause (a flow into the AlF3 balance and a transfer from the ledge to it fit alike where the
     ledge's side of the transfer is below its noise)."""
     x, u = x.reshape(-1, 8), u.reshape(-1, 5)
@@ -101,25 +92,6 @@ def decide(close: Sequence, named: Sequence[str], model: CellModel, x: np.ndarra
     chosen, *others = naming_order(close, named, reads, terms=lambda c: len(c.features))
     same = [same_physics(c.corrected, chosen.corrected, model, x, u) for c in others]
     return chosen, others, [c for c, alike in zip(others, same, strict=True) if not alike]
-
-
-def unfitted_rivals(chosen, unfitted: Sequence[Hypothesis], model: CellModel, x: np.ndarray, u: np.ndarray) -> list:
-    """The hypotheses the screen could not exclude but that were not fitted (``unfitted``) whose
-    sensitivity moves other state rates than the ``chosen`` correction (:func:`moved_rates`), at
-    the states x (..., 8) and inputs u (..., 5): unfitted, they may fit as well, and they are other
-    physics (an error in the line current moves the alumina and metal balances with the bath's heat)."""
-    x, u = x.reshape(-1, 8), u.reshape(-1, 5)
-    with np.errstate(all="ignore"):
-        base = model.rhs(x, u)
-        moved = moved_rates(chosen.corrected.rhs(x, u) - base, base)
-        return [h for h in unfitted if moved_rates(h.sensitivity(model, x, u, base=base), base) != moved]
-
-
-def moved_rates(change: np.ndarray, base: np.ndarray) -> frozenset[int]:
-    """The states (indices) whose rate ``change`` (..., 8) moves anywhere beyond rounding of the
-    rates ``base`` (..., 8)."""
-    size = np.nanmax(np.abs(np.nan_to_num(change, posinf=0.0, neginf=0.0)).reshape(-1, 8), axis=0)
-    return frozenset(np.flatnonzero(size > 1e-9 * np.nanmax(np.abs(base).reshape(-1, 8), axis=0)).tolist())
 
 
 #: what a sensor reads through the model's parts, not as a state: a correction that changes one of
