@@ -25,7 +25,7 @@ from costa.discover.cases.drawn import (
     split_cases,
 )
 from costa.discover.cases.unshipped import find_case
-from costa.discover.rates import how_often_right
+from costa.discover.rates import PUBLISHED, how_often_right
 from costa.discover.summary import judged
 from costa.integrate import rk4_step
 from costa.physics import operating_points, true_model
@@ -213,3 +213,16 @@ def test_a_size_is_projected_from_the_job_seconds_a_case():
     # a: 72 x 50 s = 1 job hour; 2 cores 30 min, 16 cores 3.75 min, and never below one case's 50 s
     assert "| a | 72 | 1.0 | 30 min | 4 min | 1 min |" in page
     assert "| b | 96 | 2.0 | 1.0 h |" in page and "| c |" not in page  # 72 x 50 + 24 x 150 s
+
+
+def test_the_published_rates_are_a_test_run_of_every_sensor_set():
+    """The rates a findings page quotes (costa/discover/benchmark_rates.csv) come from a test run of
+    the four sets, with the counts their rates are made of."""
+    published = pd.read_csv(PUBLISHED)
+    assert published.sensors.tolist() == ["full", "partial", "plant", "pot_line"]
+    assert (published.split == "test").all()
+    named = published.right + published.wrong + published["false name"]
+    assert np.allclose(published.precision[named > 0], (published.right / named)[named > 0])
+    assert (published.strong_right <= published.strong_effects).all() and (
+        published.strong_effects <= published.effects
+    ).all()

@@ -20,7 +20,7 @@ STRONG_SIGNAL = 100.0
 
 
 def _share(right: int, trials: int, low: float, high: float) -> str:
-    return f"{right} of {trials} ({right / trials:.0%}, 95 % interval {low:.0%}-{high:.0%})" if trials else "none"
+    return f"{right} of {trials} ({right / trials:.0%}, 95 % interval {low:.0%}-{high:.0%})" if trials else "none of 0"
 
 
 def how_often_right(route: str, path: Path = PUBLISHED) -> list[str]:
@@ -35,10 +35,16 @@ def how_often_right(route: str, path: Path = PUBLISHED) -> list[str]:
             continue
         r = table.loc[sensors]
         names = int(r["right"] + r["wrong"] + r["false name"])
+        named = (
+            f"a name was right in {_share(int(r['right']), names, r['precision_low'], r['precision_high'])}"
+            if names
+            else "no name was given"
+        )
+        strong = _share(
+            int(r["strong_right"]), int(r["strong_effects"]), r["strong_recall_low"], r["strong_recall_high"]
+        )
         sentences.append(
             f"on the benchmark's {sensors} records ({int(r['cases'])} drawn cases of its test seeds, {r['size']} size), "
-            f"a name was right in {_share(int(r['right']), names, r['precision_low'], r['precision_high'])}; "
-            f"effects above {STRONG_SIGNAL:g} noise units were named right in "
-            f"{_share(int(r['strong_right']), int(r['strong_effects']), r['strong_recall_low'], r['strong_recall_high'])}"
+            f"{named}; effects above {STRONG_SIGNAL:g} noise units were named right in {strong}"
         )
     return sentences
