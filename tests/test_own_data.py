@@ -200,11 +200,13 @@ def test_the_worked_example_runs_from_the_readme_command(tmp_path):
     targets = ["results/own-cell/discovery/cell/findings.json", "results/own-cell/cell_constants.csv"]
     snakemake(tmp_path, *targets, "--configfile", str(EXAMPLE / "config.yaml"))
     found = json.loads((tmp_path / targets[0]).read_text())
-    assert found["named"][0] == "term:bath_energy" and found["gap"]["windows"]["long"] == [200, 400]
+    assert found["outcome"] == "not identifiable" and found["gap"]["windows"]["long"] == [200, 400]
+    assert found["rounds"][0]["correction"]["hypothesis"] == "term:bath_energy"  # applied: the truth
     assert {c["channel"]: c["status"] for c in found["channels"]}["x6"] == "every step"
     assert {c["constant"]: c["value"] for c in found["constants"]}["k9"] == 21.5
     markdown = (tmp_path / "results/own-cell/discovery/cell/findings.md").read_text()
     assert "docs/glossary.md" in markdown and "x6 (bath temperature, degC): 2400 samples" in markdown
+    assert "**How often a name is right**" in markdown and "on the benchmark's full records" in markdown
     constants = pd.read_csv(tmp_path / targets[1]).set_index("constant")
     assert constants.loc["k16", "value"] == 30.0 and constants.loc["k14", "value"] == 0.12 / (2 * 8.0)
     assert not (tmp_path / "results" / "discovery").exists()  # under the example's own results folder
