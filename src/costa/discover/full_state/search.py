@@ -363,18 +363,16 @@ def discover_round(
     z0 = problem.standardised_residual(model)
     tests = equation_tests(z0 * problem.scale, problem.scale, settings.z_threshold, settings.min_excess)
     flagged = [i for i, t in enumerate(tests) if t.flagged]
-    if not flagged:
+
+    def nothing_named(verdict: str, where=None, ranking=()) -> Round:
+        """A round that corrects nothing: nothing disagrees, or nothing explains what does."""
         return Round(
-            model=model,
-            tests=tests,
-            where={},
-            ranking=[],
-            chosen=None,
-            equivalent=[],
-            verdict="no equation disagrees with the data beyond noise",
-            rich=rich,
-            window=window,
-        )
+            model=model, tests=tests, where=where or {}, ranking=list(ranking), chosen=None, equivalent=[],
+            verdict=verdict, rich=rich, window=window,
+        )  # fmt: skip
+
+    if not flagged:
+        return nothing_named("no equation disagrees with the data beyond noise")
     hypotheses = candidate_hypotheses(model, constant_inputs(problem.left_u))
     screened = sorted(((problem.screen(h, model, z0, flagged), h) for h in hypotheses), key=lambda item: -item[0])
     # the best few (hypotheses with the same sensitivity tie exactly: ties kept together), and every one
@@ -388,17 +386,7 @@ def discover_round(
             f"unexplained: equations {[STATES[i] for i in flagged]} disagree beyond noise, but no hypothesis "
             f"could remove {settings.min_screen:.0%} of the excess residual even with a free value in every window"
         )
-        return Round(
-            model=model,
-            tests=tests,
-            where=_where(problem, model, z0, flagged),
-            ranking=[],
-            chosen=None,
-            equivalent=[],
-            verdict=verdict,
-            rich=rich,
-            window=window,
-        )
+        return nothing_named(verdict, where=_where(problem, model, z0, flagged))
     seed = rng.integers(2**63)
     ranking = [
         _score(problem, _fit(problem, h, model=model, settings=settings, seed=seed, rich=rich), model, z0, flagged)
@@ -422,17 +410,7 @@ def discover_round(
             f"unexplained: equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate "
             f"explains it: the best, {top.hypothesis.key}, {removal(top.explained, 'the excess residual')}"
         )
-        return Round(
-            model=model,
-            tests=tests,
-            where=where,
-            ranking=ranking,
-            chosen=None,
-            equivalent=[],
-            verdict=verdict,
-            rich=rich,
-            window=window,
-        )
+        return nothing_named(verdict, where=where, ranking=ranking)
     x, u = problem.left_x[:, ::16], problem.left_u[:, ::16]
     chosen, equivalent, rivals = decide(good, named, model, x, u)
     effect = removal(chosen.explained, "the excess residual")
