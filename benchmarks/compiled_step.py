@@ -128,7 +128,7 @@ def sensitivity_rates() -> None:
 def case_stages(case: str) -> None:
     from costa.discover.cases.tables import case_tables
     from costa.discover.cases.unshipped import find_case
-    from costa.discover.pipeline import run_discovery, search_settings, starting_model
+    from costa.discover.pipeline import discovery_route, run_discovery, search_settings, starting_model
     from costa.discover.sparse.pipeline import fit_first_round, screen_first_round
     from costa.sensors import declared_noise
 
@@ -138,7 +138,7 @@ def case_stages(case: str) -> None:
     train, held = case_tables(config, case, "plant")
     start = starting_model(config, find_case(case).starting)
     noise = declared_noise(config["discovery"]["sensor_sets"], "plant")
-    settings = search_settings(config, name)
+    settings = search_settings(config, name, discovery_route(config, name, [train, held]))
     screen, fits = f"{folder}/{case}_screen.pkl", f"{folder}/{case}_fits.pkl"
     seconds = {}
     started = time.perf_counter()

@@ -124,8 +124,8 @@ def test_a_case_built_to_be_unidentifiable_names_nothing_and_says_what_would_sep
     found = discover_round(
         model,
         Observations(y=y, u=trajectories.u, channels=channels, noise=noise, dt=10.0),
-        DiscoverySettings(bootstrap=50),
-        np.random.default_rng(0),
+        settings=DiscoverySettings(bootstrap=50),
+        rng=np.random.default_rng(0),
     )
     assert {"c2", "c3"} <= set(found.flagged)
     assert not found.identifiable and found.named is None and found.verdict.startswith("not identifiable")
@@ -139,7 +139,7 @@ def test_a_case_built_to_be_unidentifiable_names_nothing_and_says_what_would_sep
 def test_the_first_round_split_into_jobs_gives_the_same_findings(default_config, tmp_path):
     """The screen as one job and its candidates' fits as 1 or 4 jobs (discovery.search_jobs), gathered:
     the same findings as one process, number for number."""
-    from costa.discover.pipeline import search_settings
+    from costa.discover.pipeline import discovery_route, search_settings
     from costa.discover.sparse.pipeline import fit_first_round, screen_first_round
 
     config = _reduced(default_config, steps=600)
@@ -152,7 +152,7 @@ def test_the_first_round_split_into_jobs_gives_the_same_findings(default_config,
         text = findings(result, name, start, {"data": "test"})
         return {k: v for k, v in text.items() if k != "discovery_seconds"}
 
-    settings = search_settings(config, name)
+    settings = search_settings(config, name, discovery_route(config, name, [train, held_out]))
     screen = tmp_path / "screen.pkl"
     screen_first_round(train, start, settings, {}, "test", screen)
     split = {}

@@ -11,7 +11,7 @@ import pytest
 from costa.discover.cases.tables import case_tables
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.findings import findings
-from costa.discover.pipeline import run_discovery, search_settings, starting_model
+from costa.discover.pipeline import discovery_route, run_discovery, search_settings, starting_model
 from costa.discover.sparse.pipeline import fit_first_round, observations, screen_first_round
 from costa.discover.sparse.shooting import round as shooting_round
 from costa.sensors import declared_noise
@@ -37,8 +37,9 @@ def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_conf
         "candidate_hypotheses",
         lambda model, constant=(): [h for h in candidate_hypotheses(model, constant) if h.key in SCREENED],
     )
-    settings = replace(search_settings(config, name), shooting_refine=1)
-    assert settings.shooting_cells == 2 and shooting_round.uses_shooting(settings, observations(train, noise, name))
+    route = discovery_route(config, name, [train, held_out])
+    assert route.name == "shooting" and route.shooting_cells == 2, route
+    settings = replace(search_settings(config, name, route), shooting_refine=1)
     screen = tmp_path / "screen.pkl"
     screen_first_round(train, start, settings, noise, "test", screen)
     fitted = {}
@@ -64,18 +65,6 @@ def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_conf
     assert found[1]["named"] == ["term:bath_energy"], found[1]["rounds"][0]["verdict"]
     terms = {c["term"]: c["value"] for c in found[1]["rounds"][0]["named"]["coefficients"]}
     assert terms["1"] == pytest.approx(-20570.0, rel=0.05), terms
-
-
-def test_the_plant_set_and_your_data_choose_the_shooting_route_by_shooting_cells(default_config):
-    """``shooting_cells`` of the sensor set (the shipped plant set: 2) or of ``user_data`` reaches the
-    search's settings; a set without it (partial) and a user's table without it keep the filter."""
-    config = copy.deepcopy(default_config)
-    assert search_settings(config, "top_heat_loss/plant").shooting_cells == 2
-    assert search_settings(config, "top_heat_loss/partial").shooting_cells == 0
-    config["discovery"]["user_data"] = {"name": "pot12", "shooting_cells": 3}
-    assert search_settings(config, "pot12").shooting_cells == 3
-    config["discovery"]["user_data"] = {"name": "pot12"}
-    assert search_settings(config, "pot12").shooting_cells == 0
 
 
 @pytest.mark.parametrize(("removed", "applied"), [(0.39, False), (0.6, True)])

@@ -16,6 +16,8 @@ os.environ.update(
 # One BLAS/OpenMP thread per job unless the job sets more (torch oversubscribes a small machine otherwise).
 for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
+from costa.discover.route import choose_route  # noqa: E402
+
 # The same CPU kernels for every job, whatever the shell says (config `kernels`):
 # the numbers then do not depend on the CPU (docs/reproducibility.md).
 from costa.kernels import kernel_environment  # noqa: E402
@@ -367,11 +369,13 @@ def beyond_targets():
 
 def split_search(wildcards):
     """A sparse sensor set's first-round records: its screen and discovery.search_jobs shares of the
-    fits (:mod:`costa.discover.sparse.split`); none where every state is measured at every step.
+    fits (:mod:`costa.discover.sparse.split`); none on the full-state route (costa.discover.route).
     """
     channels = config["discovery"]["sensor_sets"][wildcards.sensors]["channels"]
-    every_step = config["simulation"]["dt_s"]
-    if all(channels.get(f"x{i}", {}).get("every_s") == every_step for i in range(1, 9)):
+    declared = {
+        c: float(s["every_s"]) for c, s in channels.items() if s["every_s"] != "tap"
+    }
+    if choose_route(declared, dt_s=config["simulation"]["dt_s"]).name == "full_state":
         return {}
     prefix = out(f"discovery/{wildcards.case}/sensors/{wildcards.sensors}/search")
     jobs = config["discovery"]["search_jobs"]

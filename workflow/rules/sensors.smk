@@ -27,6 +27,7 @@ rule sensors_screen:
     hypothesis screened (the fits run as separate jobs)."""
     input:
         train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
+        held_out=out("discovery/{case}/sensors/{sensors}/data/held_out.parquet"),  # the route reads both
         code=DISCOVERY_CODE + package_files("sensors.py"),
     output:
         screen=out("discovery/{case}/sensors/{sensors}/search/screen.pkl"),
@@ -56,6 +57,7 @@ rule sensors_fit:
     {job}, {job} + {jobs}, ..."""
     input:
         train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
+        held_out=out("discovery/{case}/sensors/{sensors}/data/held_out.parquet"),
         screen=out("discovery/{case}/sensors/{sensors}/search/screen.pkl"),
         code=DISCOVERY_CODE + package_files("sensors.py"),
     output:

@@ -2,14 +2,15 @@
 
 from costa import runtime
 from costa.data import load_trajectories
-from costa.discover.pipeline import search_settings, starting_model
+from costa.discover.pipeline import discovery_route, search_settings, starting_model
 from costa.discover.sparse.pipeline import fit_first_round, screen_first_round
 
 log = runtime.configure(snakemake)
 config, name = snakemake.params.config, snakemake.params.name
 start = starting_model(config, snakemake.params.starting_model)
 train = load_trajectories(snakemake.input.train)
-settings, noise = search_settings(config, name), snakemake.params.declared_noise
+route = discovery_route(config, name, [train, load_trajectories(snakemake.input.held_out)])
+settings, noise = search_settings(config, name, route), snakemake.params.declared_noise
 if snakemake.rule == "sensors_screen":
     screen_first_round(train, start, settings, noise, snakemake.input.train, snakemake.output.screen)
 else:

@@ -1,13 +1,13 @@
-"""A discovery run from data to findings: the glue that picks the route.
+"""A discovery run from data to findings: the glue that reads the config and runs the route.
 
-The starting model, the settings and the gap's windows come from the config; a table with
-every state at every step goes the full-state route (:mod:`.full_state`), any other the
-sparse route (:mod:`.sparse`).  A user's own table is split into training and held-out
-trajectories here too.
+The starting model, the settings and the gap's windows come from the config; the route (full
+state, filter or shooting) from what the record samples (:func:`.route.record_route`).  A user's
+own table is split into training and held-out trajectories here too.
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -16,16 +16,20 @@ import numpy as np
 import pandas as pd
 
 from .. import seeds
-from ..data import TrajectoryDataError, incomplete_states, load_trajectories
+from ..data import TrajectoryDataError, load_trajectories, time_step
 from ..metrics import EvaluationSettings, windows_from_fractions
 from ..physics import CellModel, model_from_config
 from ..variables import INPUTS
 from .core.library import constant_inputs
 from .core.settings import DiscoverySettings
 from .full_state.pipeline import DiscoveryResult, run_full_state_discovery
+from .route import Route, record_route
 from .sparse.pipeline import SparseResult, run_sparse_discovery
 
+log = logging.getLogger(__name__)
+
 __all__ = [
+    "discovery_route",
     "gap_settings",
     "run_discovery",
     "split_held_out",
@@ -104,13 +108,16 @@ def _record_settings(config: Mapping, name: str) -> Mapping:
     return config["discovery"]["sensor_sets"].get(name.rpartition("/")[2], {}) if "/" in name else {}
 
 
-def search_settings(config: Mapping, name: str) -> DiscoverySettings:
-    """How the discovery of data set ``name`` decides, with its own random stream.  A shipped case
-    under a sensor set (``name`` "case/sensors") or your data (``discovery.user_data``) take that
-    set's or your ``shooting_cells``: a pot line's record is then decided by multiple shooting."""
-    shooting = _record_settings(config, name).get("shooting_cells", 0)
+def discovery_route(config: Mapping, name: str, tables: Sequence[pd.DataFrame]) -> Route:
+    """The route of data set ``name`` from what its ``tables`` (training and held-out) sample, with
+    its sensor set's or your ``shooting_cells`` where stated (:func:`.route.record_route`)."""
+    return record_route(tables, time_step(tables[0]), _record_settings(config, name).get("shooting_cells"))
+
+
+def search_settings(config: Mapping, name: str, route: Route) -> DiscoverySettings:
+    """How the discovery of data set ``name`` decides on its ``route``, with its own random stream."""
     seed = seeds.stream(config["seed"], 0, f"discovery/{name}/search")
-    return replace(settings_from_config(config), seed=seed, shooting_cells=shooting)
+    return replace(settings_from_config(config), seed=seed, shooting_cells=route.shooting_cells)
 
 
 def gap_restart_s(config: Mapping, name: str) -> float | None:
@@ -134,13 +141,16 @@ def run_discovery(
 
     Tables with every state at every step take the weak-form route (:mod:`.full_state`); any
     other table (states missing or sampled now and then, outputs such as the cell voltage) the
-    estimator's (:mod:`.sparse`), with ``declared_noise`` for channels too sparse to estimate it.
+    filter's or multiple shooting's (:mod:`.sparse`, :func:`discovery_route`), with
+    ``declared_noise`` for channels too sparse to estimate it.
     ``name`` keys the random streams; ``source`` names the data in error messages;
     ``first_round``: the sparse route's first-round records, where separate jobs made them.
     """
-    settings = search_settings(config, name)
+    route = discovery_route(config, name, [train, held_out])
+    log.info("%s: the %s route (%s)", source, route.name, route.why)
+    settings = search_settings(config, name, route)
     floor_rng = seeds.numpy_generator(config["seed"], 0, f"discovery/{name}/floor")
-    if incomplete_states(train) or incomplete_states(held_out):
+    if route.name != "full_state":
         evaluation = gap_settings(config, name, int(held_out.groupby("trajectory").size().iloc[0]))
         result = run_sparse_discovery(
             train, held_out, start=start, settings=settings, evaluation=evaluation, declared_noise=declared_noise or {}, source=source, rng=floor_rng, first_round=first_round,

@@ -10,8 +10,12 @@ from ...observe import SENSED_PART, observe
 from ...physics import BALANCES, PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
 from .hypotheses import PREFERENCE, Hypothesis
+from .settings import DiscoverySettings
 
-__all__ = ["balance_moved", "causes_through", "decide", "fit_outcome", "naming_order", "removal", "same_physics"]
+__all__ = [
+    "balance_moved", "causes_through", "decide", "fit_outcome", "naming_order", "removal", "same_physics",
+    "small_form_error",
+]  # fmt: skip
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
 SAME_PHYSICS = 0.05
@@ -43,6 +47,16 @@ def removal(share: float, excess: str = "the excess") -> str:
     """What a correction does to ``excess`` (the excess over noise it removes, ``share`` of it), in
     words: a negative share is an excess the correction made larger."""
     return f"adds {-share:.0%} to {excess}" if share < 0 else f"removes {share:.0%} of {excess}"
+
+
+def small_form_error(removed: float, left: float, settings: DiscoverySettings) -> bool:
+    """Whether a correction that leaves channels beyond their noise is still named, its closed form
+    "incomplete" (the rule of both sparse routes): it removes ``settings.form_removed`` of the
+    uncorrected model's excess (``removed``, a share) and leaves no channel more than
+    ``settings.form_excess`` noise variances beyond its noise (``left``).  Hundreds of thousands of
+    samples flag such an error; a correction that leaves 50 times the noise variance, though it
+    removed 96 % of a far larger excess, is not one."""
+    return removed >= settings.form_removed and left <= settings.form_excess
 
 
 def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:

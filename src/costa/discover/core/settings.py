@@ -24,7 +24,7 @@ class DiscoverySettings:
     min_explained: float = 0.5  # share of the excess residual a correction must remove
     # sparse data: a correction leaving channels flagged is named ("form incomplete") only if it removes
     # this share of their excess and leaves no channel more than form_excess noise variances beyond noise
-    form_incomplete: float = 0.9
+    form_removed: float = 0.9
     form_excess: float = 0.5
     screen_keep: int = 8  # hypotheses that get a closed-form fit after screening (plus ties)
     min_screen: float = 0.05  # ... if a free delta along them explains at least this share

@@ -350,13 +350,9 @@ def _where(
 
 
 def discover_round(
-    model: CellModel,
-    problem: _Problem,
-    settings: DiscoverySettings,
-    rng: np.random.Generator,
-    rich: bool = False,
-    named: Sequence[str] = (),
-) -> Round:
+    model: CellModel, problem: _Problem, *, settings: DiscoverySettings, rng: np.random.Generator,
+    rich: bool = False, named: Sequence[str] = (),
+) -> Round:  # fmt: skip
     """One round on the current model (see the module docstring); ``rich``: the larger term
     library; ``named``: the keys of the hypotheses earlier rounds named."""
     window = problem.form.window

@@ -7,11 +7,11 @@ through the cell's sensors, and decides each round by one of two routes over a s
 - :mod:`.filter`: each hypothesis a random-walk delta(t) in the filter, scored by the likelihood
   it gains, its closed form regressed on the smoothed delta, round after round;
 - :mod:`.shooting`: closed forms fitted by multiple shooting (a pot line's hourly and 8-hourly
-  samples, where ``shooting_cells`` is set), one round.
+  samples: :mod:`costa.discover.route`), one round.
 
 The shared layer: the records as arrays (:mod:`.observations`), the filter and smoother
 (:mod:`.estimator`, :mod:`.observed`), the round's result (:mod:`.rounds`), "measure next"
-(:mod:`.measure_next`) and the gap (:mod:`.gap`).  :mod:`.pipeline` picks the route and
+(:mod:`.measure_next`) and the gap (:mod:`.gap`).  :mod:`.pipeline` runs the chosen route and
 :mod:`.split` writes a round's jobs' records.  It imports the shared core
 (:mod:`costa.discover.core`), never the full-state route.
 """

@@ -29,7 +29,7 @@ from .gap import measured_gap, measured_noise_floor
 from .observations import Observations, channel_noise
 from .observed import START_SEARCH_S, start_is_searched
 from .rounds import SparseRound
-from .shooting.round import decide_by_shooting, fit_by_shooting, screen_by_shooting, uses_shooting
+from .shooting.round import decide_by_shooting, fit_by_shooting, screen_by_shooting
 from .split import (
     read_fits,
     read_screen,
@@ -123,10 +123,10 @@ def screen_first_round(
     source: str, path: str | Path,
 ) -> None:  # fmt: skip
     """The first round's screen (:func:`.filter.search.screen_round`, or :func:`.shooting.round.screen_by_shooting`
-    where :func:`.shooting.round.uses_shooting`), written to ``path`` for the fit jobs and the gather
+    on the shooting route, ``settings.shooting_cells`` > 0), written to ``path`` for the fit jobs and the gather
     (:mod:`.split`)."""
     obs = checked_observations(train, declared_noise, source, settings).with_start(start)
-    if uses_shooting(settings, obs):
+    if settings.shooting_cells:
         write_shot_screen(screen_by_shooting(start, obs, settings), path)
         return
     screen = screen_round(start, obs, settings, np.random.default_rng(settings.seed), named=())
@@ -140,7 +140,7 @@ def fit_first_round(
     """Job ``job`` of ``jobs``: fit the screen's candidates job, job + jobs, ... and write them to ``path``."""
     obs = checked_observations(train, declared_noise, source, settings)
     share = slice(job, None, jobs)
-    if uses_shooting(settings, obs):
+    if settings.shooting_cells:
         screen = read_shot_screen(screen_path, start)
         write_shot_fits(
             fit_by_shooting(start, screen, obs, settings, share), range(len(screen.candidates))[share], path
@@ -192,7 +192,7 @@ def run_sparse_discovery(
         )
     evaluation, start_steps = _estimation_windows(evaluation, held, source)  # checked before the search runs
     started = time.perf_counter()
-    if uses_shooting(settings, obs):
+    if settings.shooting_cells:
         rounds = [_shooting_round(start, obs, settings, first_round)]
     elif first_round is None:
         obs = obs.with_start(start)

@@ -130,6 +130,18 @@ class SparseRound:
             verdict="no measured channel disagrees beyond noise",
         )  # fmt: skip
 
+    @classmethod
+    def unexplained_round(
+        cls, model: CellModel, tests: list[ChannelTest], ranking: list[SparseCandidate], verdict: str, *,
+        measure_next: list[Recommendation], chosen: SparseCandidate | None = None, dispersion: float = 1.0,
+    ) -> SparseRound:  # fmt: skip
+        """A round in which channels disagree and nothing is named: ``chosen``, where given, is the best
+        correction, applied without a name."""
+        return cls(
+            model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=[], identifiable=True,
+            separated_by=None, verdict=verdict, dispersion=dispersion, measure_next=measure_next,
+        )  # fmt: skip
+
     @property
     def flagged(self) -> list[str]:
         return [t.channel for t in self.tests if t.flagged]

@@ -2,6 +2,6 @@
 
 Scored by the likelihood its delta gains (:mod:`.likelihood`), its smoothed delta regressed on the
 physical terms, and the corrected models ranked by BIC, round by round (:mod:`.search`).  The
-route wherever the shooting route is not set (the ``partial`` and ``pot_line`` sensor sets; your
-own sparse records without ``shooting_cells``).
+route of sparse records with the composition at every step or hand samples rarer than a shift (the
+``partial`` and ``pot_line`` sensor sets: :mod:`costa.discover.route`).
 """

@@ -29,7 +29,7 @@ One round on the current model:
    equivalence margin, or the two are undecided as in 4 (:func:`at_budget`);
 6. a named correction whose closed form leaves a channel slightly disagreeing (hundreds of
    thousands of samples make a small form error significant) stays named where it removes
-   ``form_incomplete`` of the flagged excess and leaves no channel more than ``form_excess`` noise
+   ``form_removed`` of the flagged excess and leaves no channel more than ``form_excess`` noise
    variances beyond noise, and the verdict says "form incomplete" with what
    is left; the rounds stop there.
 """
@@ -48,7 +48,7 @@ from ....physics import CellModel
 from ...core.fitted_terms import KEEP_LEVEL, weakest_term
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ...core.naming import decide, fit_outcome, naming_order, removal, same_physics
+from ...core.naming import decide, fit_outcome, naming_order, removal, same_physics, small_form_error
 from ...core.regression import (
     GramSystem,
     coefficient_samples,
@@ -426,13 +426,9 @@ def fit_share(
 
 
 def discover_round(
-    model: CellModel,
-    obs: Observations,
-    settings: DiscoverySettings,
-    rng: np.random.Generator,
-    rich: bool = False,
-    named: Sequence[str] = (),
-) -> SparseRound:
+    model: CellModel, obs: Observations, *, settings: DiscoverySettings, rng: np.random.Generator,
+    rich: bool = False, named: Sequence[str] = (),
+) -> SparseRound:  # fmt: skip
     """One round on the current model (see the module docstring); ``named``: what earlier rounds named."""
     screen = screen_round(model, obs, settings, rng, named)
     return decide_round(
@@ -475,17 +471,8 @@ def decide_round(
             outcome = fit_outcome(bool(top.features), top.explained, bool(np.isfinite(top.bic_gain)))
             verdict += f": the best, {top.hypothesis.key}, {outcome}"
         fitted = [c for c in ranking if c.corrected is not None][:3]
-        return SparseRound(
-            model=model,
-            tests=tests,
-            ranking=ranking,
-            chosen=None,
-            equivalent=[],
-            identifiable=True,
-            separated_by=None,
-            verdict=verdict,
-            dispersion=dispersion,
-            measure_next=_next(fitted, obs),
+        return SparseRound.unexplained_round(
+            model, tests, ranking, verdict, measure_next=_next(fitted, obs), dispersion=dispersion
         )
     x = screen.states  # every 16th step
     chosen, equivalent, different = decide(good, named, model, x, obs.u[:, ::16])
@@ -552,13 +539,10 @@ def decide_round(
 
 
 def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
-    """Whether what the chosen correction leaves is a small error of its closed form: it removes the
-    ``form_incomplete`` share of the flagged channels' excess, and no channel is left more than
-    ``form_excess`` noise variances beyond white unit noise (chi2/dof - 1 + bias^2).  Hundreds of
-    thousands of samples flag such an error; a correction that leaves 50 times the noise
-    variance, though it removed 96 % of a far larger excess, is not one."""
+    """:func:`...core.naming.small_form_error` of the chosen correction: what it removes of the flagged
+    channels' excess, and the most any channel is left beyond white unit noise (chi2/dof - 1 + bias^2)."""
     left = max((_excess([t], [t.channel]) for t in chosen.tests_after), default=0.0)
-    return chosen.explained >= settings.form_incomplete and left <= settings.form_excess
+    return small_form_error(chosen.explained, left, settings)
 
 
 def _next(candidates: Sequence[SparseCandidate], obs: Observations) -> list[Recommendation]:

@@ -1,7 +1,7 @@
 """A round on a pot line's record decided by multiple shooting: every hypothesis screened, the best fitted.
 
-Where the first state is searched (hand samples too sparse to place it at the first step) and
-``shooting_cells`` > 0 (the ``plant`` sensor set's default), the first round runs:
+On the shooting route (:mod:`costa.discover.route`: hand samples every shift or more often, the
+composition not logged at every step), the first round runs:
 
 1. the uncorrected model's channel tests, its filter's innovations on every cell, as on the
    filter route: nothing flagged -> stop;
@@ -38,23 +38,17 @@ from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, innovation_tests
 from ..measure_next import measure_next
 from ..observations import Observations
-from ..observed import start_is_searched
 from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests
 from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit, states_eliminated
 from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms
 
 __all__ = [
     "ShotFit", "ShotScreen", "by_excess", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting",
-    "screened_forms", "shooting_cells", "uses_shooting",
+    "screened_forms", "shooting_cells",
 ]  # fmt: skip
 
 #: the segments' length [s]
 SEGMENT_S = 3600.0
-
-
-def uses_shooting(settings: DiscoverySettings, obs: Observations) -> bool:
-    """Whether the first round is decided by shooting: ``shooting_cells`` set and the first state searched."""
-    return settings.shooting_cells > 0 and start_is_searched(obs.y, obs.channels)
 
 
 def shooting_cells(obs: Observations, cells: int) -> Observations:
@@ -218,17 +212,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             f"unexplained: channels {flagged} disagree beyond noise, but no closed form fitted on {cells} pays "
             "its terms in every cell"
         )
-        return SparseRound(
-            model=model,
-            tests=tests,
-            ranking=order,
-            chosen=None,
-            equivalent=[],
-            identifiable=True,
-            separated_by=None,
-            verdict=verdict,
-            measure_next=next_measured(order[:3]),
-        )
+        return SparseRound.unexplained_round(model, tests, order, verdict, measure_next=next_measured(order[:3]))
     chosen = candidates[id(ranking.equivalent[0])]
     equivalent = [candidates[id(f)] for f in ranking.equivalent[1:] + ranking.rivals]
     rivals = [candidates[id(f)] for f in ranking.rivals]
@@ -243,16 +227,8 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             f"the correction {effect}" + ("" if applied else f", less than {settings.min_explained:.0%}: not applied")
         )
         recommended = next_measured([chosen, *(c for c in order if c is not chosen)][:3])
-        return SparseRound(
-            model=model,
-            tests=tests,
-            ranking=order,
-            chosen=chosen if applied else None,
-            equivalent=[],
-            identifiable=True,
-            separated_by=None,
-            verdict=verdict,
-            measure_next=recommended,
+        return SparseRound.unexplained_round(
+            model, tests, order, verdict, measure_next=recommended, chosen=chosen if applied else None
         )
     if rivals:
         recommended = next_measured([chosen, *rivals])

@@ -23,7 +23,7 @@ import numpy as np
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from ...core.naming import balance_moved, causes_through, decide, naming_order
+from ...core.naming import balance_moved, causes_through, decide, naming_order, small_form_error
 from ...core.settings import DiscoverySettings
 from ..observations import Observations
 from ..observed import PRIOR_STD
@@ -195,15 +195,14 @@ class FittedForm:
     cell_gains: np.ndarray
     corrected: CellModel
 
-    def form_incomplete(self, excess_before: float, settings: DiscoverySettings) -> bool:
-        """Whether the fit, not at its noise, leaves only a small error of its closed form: it removes
-        the ``form_incomplete`` share of the uncorrected fit's excess (``excess_before``) and leaves no
-        channel beyond its noise by more than ``form_excess`` noise variances, as the filter route asks
-        (:class:`...core.settings.DiscoverySettings`).  The voltage's 34 000 samples flag 1.03; on
-        tapping_shortfall the true model's own fit left it at 1.06 through three continuity stages."""
+    def small_form_error(self, excess_before: float, settings: DiscoverySettings) -> bool:
+        """Whether the fit, not at its noise, leaves only a small error of its closed form
+        (:func:`...core.naming.small_form_error`) against the uncorrected fit's excess ``excess_before``.
+        The voltage's 34 000 samples flag 1.03; on tapping_shortfall the true model's own fit left it
+        at 1.06 through three continuity stages."""
         left = max((v - 1.0 for v in self.fit.beyond_noise.values()), default=0.0)
         removed = 1.0 - self.fit.excess / excess_before if excess_before > 0 else 0.0
-        return not self.fit.at_noise and removed >= settings.form_incomplete and left <= settings.form_excess
+        return not self.fit.at_noise and small_form_error(removed, left, settings)
 
 
 @dataclass(frozen=True)
@@ -220,7 +219,7 @@ class Ranking:
     equivalent: list[FittedForm]
     rivals: list[FittedForm]
     names: list[str] = field(default_factory=list)
-    incomplete: bool = False  # the first's closed form leaves a small error (FittedForm.form_incomplete)
+    incomplete: bool = False  # the first's closed form leaves a small error (FittedForm.small_form_error)
 
     @property
     def verdict(self) -> str:
@@ -262,7 +261,7 @@ def ranked_fits(
     (its filter's likelihood: -22 and 812) where the right tapping gain gained 13 and 20.  Where a
     cell's record cannot show the effect, nothing is named.  Fits that leave every channel at
     its noise (:attr:`.fit.ShootingFit.at_noise`), or whose form is only incomplete against the
-    uncorrected fit's excess ``excess_before`` (:meth:`FittedForm.form_incomplete`), come first, by
+    uncorrected fit's excess ``excess_before`` (:meth:`FittedForm.small_form_error`), come first, by
     BIC gain: differences in the excess there are noise.  The rest follow by their excess (to 0.1
     noise variances), then BIC gain; where the first is one of them, nothing is told apart (the
     outcome is unexplained).  Where the
@@ -277,7 +276,7 @@ def ranked_fits(
     settings = settings or DiscoverySettings()
 
     def good(f: FittedForm) -> bool:
-        return f.fit.at_noise or f.form_incomplete(excess_before, settings)
+        return f.fit.at_noise or f.small_form_error(excess_before, settings)
 
     order = sorted(
         [f for f in fits if f.bic_gain > 0 and f.cell_gains.min() > len(f.features) * penalty / len(f.cell_gains)],
