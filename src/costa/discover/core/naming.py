@@ -62,15 +62,20 @@ def small_form_error(removed: float, left: float, settings: DiscoverySettings) -
 def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:
     """Equally good explanations (items with a ``hypothesis``) in the order they are named: one
     refining an effect named in an earlier round; then the cause before its consequences (a part
-    computed from another explanation's part, input or property comes after it); then fewest
-    terms (``terms(item)``); then an input before an added flow, a transfer, a part and a
-    property; then the earliest computed part (the order listed, for the other kinds)."""
+    computed from another explanation's part, input or property comes after it, and so does a
+    correction fitted as a constant times one input whose gain is among them: it is that gain);
+    then fewest terms (``terms(item)``); then an input before an added flow, a transfer, a part
+    and a property; then the earliest computed part (the order listed, for the other kinds)."""
     downstream = set().union(*(_consequences(item.hypothesis, reads) for item in items))
+    gains = {item.hypothesis.target for item in items if item.hypothesis.kind == "input"}
 
     def key(item) -> tuple:
         h = item.hypothesis
         order = {"part": PART_ORDER, "property": tuple(PROPERTIES), "input": INPUTS}.get(h.kind, (h.target,))
-        consequence = h.kind == "part" and h.target in downstream
+        read = [f.name for f in getattr(item, "features", ())]
+        consequence = (h.kind == "part" and h.target in downstream) or (
+            h.kind != "input" and len(read) == 1 and read[0] in gains
+        )
         return (h.key not in named, consequence, terms(item), PREFERENCE[h.kind], order.index(h.target))
 
     return sorted(items, key=key)
