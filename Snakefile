@@ -18,6 +18,7 @@ from costa.config import (  # noqa: E402
     ConfigError,
     check_config,
     check_consistency,
+    check_historian,
     check_user_data,
 )
 from costa.data import TrajectoryDataError  # noqa: E402
@@ -33,6 +34,7 @@ try:
     )
     check_consistency(config)
     check_user_data(config)
+    check_historian(config)
 except (ConfigError, TrajectoryDataError) as error:
     sys.exit(str(error))
 
@@ -42,6 +44,7 @@ include: "workflow/rules/simulate.smk"
 include: "workflow/rules/train.smk"
 include: "workflow/rules/evaluate.smk"
 include: "workflow/rules/figures.smk"
+include: "workflow/rules/historian.smk"
 include: "workflow/rules/discover.smk"
 include: "workflow/rules/sensors.smk"
 include: "workflow/rules/replicates.smk"

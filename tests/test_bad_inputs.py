@@ -156,7 +156,21 @@ EVENTS = [
      "events.csv: column 'weighed_kg' has a value at row 1, a 'alumina_dose': only taps are weighed"),
 ]  # fmt: skip
 
+# (name, the historian's files (historian: export, tags), what the one line must say); tests/test_historian.py has more
+TAG_MAP = "signals: {POT.VOLT: {to: U_pot, unit: V}, LINE.AMPS: {to: u2, unit: kA}}\n"
+HISTORIAN = [
+    ("historian: an unknown tag", {"export.csv": "timestamp,tag,value\n2026-03-01 06:00:00,POT.VOLT,4.2\n"
+                                                 "2026-03-01 06:00:05,POT.NOISE,1\n", "tags.yaml": TAG_MAP},
+     "export.csv: tag 'POT.NOISE' at row 1 is not in the tag map"),
+    ("historian: time going backwards", {"export.csv": "timestamp,tag,value\n2026-03-01 06:00:05,LINE.AMPS,140\n"
+                                                       "2026-03-01 06:00:00,LINE.AMPS,140\n", "tags.yaml": TAG_MAP},
+     "export.csv: tag 'LINE.AMPS' at row 1 goes back in time"),
+    ("historian: a unit that does not convert", {"export.csv": "timestamp,tag,value\n", "tags.yaml": TAG_MAP.replace("kA", "kg")},
+     "tags.yaml: signal 'LINE.AMPS' in kg does not convert to u2's unit A"),
+]  # fmt: skip
+
 CASES = [pytest.param(text, message, None, None, None, id=name) for name, text, message in CONFIGS]
+CASES += [pytest.param(files, message, None, None, None, id=name) for name, files, message in HISTORIAN]
 CASES += [pytest.param(None, message, file, spoil, None, id=name) for name, file, spoil, message in DATA]
 CASES += [pytest.param(None, message, "cell.csv", lambda t: t, events, id=name) for name, events, message in EVENTS]
 
@@ -183,6 +197,10 @@ def _write(folder, file, spoil, good_table) -> None:
 def _bad_config(folder: Path, config, file, spoil, events, good_table) -> Path:
     """The config file of one case, beside the measurement and events files it names."""
     folder.mkdir()
+    if isinstance(config, dict):  # a historian's files
+        for name, text in config.items():
+            (folder / name).write_text(text)
+        config = f"historian: {{export: {folder / 'export.csv'}, tags: {folder / 'tags.yaml'}}}"
     if file is not None:
         _write(folder, file, spoil, good_table)
         user = f"path: {folder / file}, name: cell"

@@ -163,6 +163,32 @@ def check_user_data(config: Mapping[str, Any]) -> None:
             raise TrajectoryDataError(f"invalid data at 'discovery.user_data.events': {error}") from None
 
 
+def check_historian(config: Mapping[str, Any]) -> None:
+    """Import the historian export ``historian`` names (if any) as the workflow will, so that a bad
+    export stops a run in one line naming the file, the tag and the row before anything is scheduled."""
+    if not config.get("historian"):
+        return
+    from .data import TrajectoryDataError
+    from .historian import import_historian, read_tag_map
+
+    h = config["historian"]
+    try:
+        settings = historian_settings(h, config["simulation"]["dt_s"])
+        import_historian(h["export"], read_tag_map(h["tags"]), settings, h["events"], h["lab"])
+    except TrajectoryDataError as error:
+        raise TrajectoryDataError(f"invalid data at 'historian': {error}") from None
+
+
+def historian_settings(h: Mapping[str, Any], dt_s: float):
+    """The grid a historian export is put on: the model's step ``dt_s`` [s] and the ``historian`` keys ``h``."""
+    from .historian import GridSettings
+
+    return GridSettings(
+        timezone=h["timezone"], step_s=dt_s, max_gap_s=h["max_gap_s"],
+        anode_effect_v=h["anode_effect_v"], anode_effect_after_s=h["anode_effect_after_s"],
+    )  # fmt: skip
+
+
 def _check_peers(config: Mapping[str, Any]) -> None:
     from .discover.cases.unshipped import find_case
 
