@@ -182,3 +182,13 @@ def test_a_short_input_gap_is_held_and_a_long_one_cut_whole(files):
     report = _import(files(), max_gap_s=2400).report
     assert report["trajectories"] == 1 and report["held_steps"] == {"u2": 12 + 180} and not report["cuts"]
     assert np.isclose(report["rows"], report["steps"])
+
+
+@pytest.mark.parametrize(("seconds", "trajectories", "left_over"), [(1800, 5, 0), (2400, 3, 120 + 60)])
+def test_stretches_are_cut_into_whole_trajectories_of_equal_length(files, seconds, trajectories, left_over):
+    """trajectory_s cuts the 1 h before the outage and the 1.5 h after it into whole pieces (what
+    discovery stacks: equal lengths); what does not make a whole piece is left out and counted."""
+    imported = _import(files(), trajectory_s=seconds)
+    lengths = imported.record.groupby("trajectory").size()
+    assert len(lengths) == trajectories and (lengths == seconds // 10).all()
+    assert imported.report["left_over_steps"] == left_over and imported.report["trajectories"] == trajectories

@@ -40,6 +40,7 @@ class GridSettings:
     max_gap_s: float = 600.0
     anode_effect_v: float = 8.0
     anode_effect_after_s: float = 600.0
+    trajectory_s: float | None = None  # each stretch cut into whole trajectories this long (the rest left out)
 
 
 @dataclass(frozen=True)
@@ -142,9 +143,10 @@ class _Grid:
         report["blanked"] = self._blank_implausible(columns)
         held = self._hold(columns)
         valid = np.all([np.isfinite(columns[u]) for u in LOGGED_INPUTS if u in columns], axis=0)
-        trajectory = np.cumsum(valid & ~np.r_[False, valid[:-1]]) - 1  # a trajectory starts after each cut
         report["cuts"] = self._cuts(valid)
         report["held_steps"] = held
+        trajectory, report["left_over_steps"] = self._trajectories(valid)
+        valid &= trajectory >= 0
         rows = np.flatnonzero(valid)
         table = pd.DataFrame({"trajectory": trajectory[rows], "time_s": rows * s.step_s})
         for name in ("u1", "u2", "u3", "u4", "u5"):
@@ -207,6 +209,24 @@ class _Grid:
                 columns[name] = np.where(short, pd.Series(columns[name]).ffill().to_numpy(), columns[name])
                 held[name] = int(np.isfinite(columns[name][short]).sum())
         return held
+
+    def _trajectories(self, valid: np.ndarray) -> tuple[np.ndarray, int]:
+        """Each step's trajectory (-1: none) and the steps left over: a stretch between cuts is one
+        trajectory, or as many whole ones of ``trajectory_s`` as it holds (equal lengths, as discovery needs)."""
+        stretch = np.cumsum(valid & ~np.r_[False, valid[:-1]]) - 1  # a stretch starts after each cut
+        if self.settings.trajectory_s is None:
+            return np.where(valid, stretch, -1), 0
+        length = int(round(self.settings.trajectory_s / self.settings.step_s))
+        position = np.arange(len(valid)) - np.maximum.accumulate(
+            np.where(valid & ~np.r_[False, valid[:-1]], np.arange(len(valid)), 0)
+        )
+        piece = np.where(valid, position // length, -1)
+        sizes = pd.Series(position[valid]).groupby(stretch[valid]).transform("size").to_numpy()
+        whole = np.zeros(len(valid), bool)
+        whole[valid] = position[valid] < sizes // length * length
+        keys = pd.Series(list(zip(stretch, piece, strict=True)))
+        trajectory = np.where(whole, pd.factorize(keys.where(whole))[0], -1)
+        return trajectory, int(valid.sum() - whole.sum())
 
     def _cuts(self, valid: np.ndarray) -> list[dict]:
         """The stretches left out where an input had no value for longer than ``max_gap_s``."""

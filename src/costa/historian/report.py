@@ -38,6 +38,7 @@ def report_markdown(report: dict) -> str:
     lines += ["", "**Cut** (an input without a value for longer than max_gap_s; left out):"]
     lines += [f"- from {c['start_utc']}, {c['seconds']:g} s" for c in report["cuts"]] or ["- none"]
     lines += ["", f"**Held** (an input's last value carried over a short gap), steps: {report['held_steps'] or 'none'}"]
+    lines += ["", f"**Left over** (not a whole trajectory of trajectory_hours), steps: {report['left_over_steps']}"]
     lines += ["", "**Anode effects** (the voltage left empty from the start to anode_effect_after_s after the end):"]
     lines += [f"- {a['voltage']} from {a['start_utc']}, {a['seconds']:g} s" for a in report["anode_effects"]] or [
         "- none"
