@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+import sys
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -26,6 +29,8 @@ cathode_area_m2: 12.0
 good_quality: [good, "192"]
 """
 START = pd.Timestamp("2026-03-01 06:00:00")  # local time in Oslo: 05:00 UTC
+#: the pot-line example's outcome (examples/pot-line/README.md): the feeder's effect flagged, not named in 10 days
+EXAMPLE_OUTCOME = "unexplained"
 
 
 def _stamp(seconds: float) -> str:
@@ -192,3 +197,21 @@ def test_stretches_are_cut_into_whole_trajectories_of_equal_length(files, second
     lengths = imported.record.groupby("trajectory").size()
     assert len(lengths) == trajectories and (lengths == seconds // 10).all()
     assert imported.report["left_over_steps"] == left_over and imported.report["trajectories"] == trajectories
+
+
+@pytest.mark.integration  # about four minutes: ten days of one pot simulated, imported and searched
+def test_the_pot_line_example_runs_from_its_two_commands(tmp_path):
+    """examples/pot-line/README.md: the export made, then one command imports it and runs discovery."""
+    from conftest import REPOSITORY, repository_copy, run_command
+
+    work = repository_copy(tmp_path / "repo")
+    made = run_command(work, f"PYTHONPATH=src {sys.executable} examples/pot-line/make_export.py")
+    assert made.returncode == 0, made.stderr
+    target = "results/pot-line/discovery/pot12/findings.json"
+    ran = run_command(work, f"snakemake --cores 2 {target} --configfile examples/pot-line/config.yaml")
+    assert ran.returncode == 0, ran.stderr[-3000:]
+    imported = json.loads((work / "results/pot-line/historian/pot12/import.json").read_text())
+    assert imported["trajectories"] == 4 and len(imported["cuts"]) == 1 and len(imported["anode_effects"]) == 1
+    found = json.loads((work / target).read_text())
+    assert found["outcome"] == EXAMPLE_OUTCOME, found["outcome"]
+    assert REPOSITORY != work

@@ -146,7 +146,7 @@ def check_user_data(config: Mapping[str, Any]) -> None:
     and row of the first problem, so that a bad file stops a run before anything is scheduled.
     """
     user = config["discovery"]["user_data"]
-    if not user:
+    if not user or _made_by_the_import(config, user["path"]):
         return
     from .data import TrajectoryDataError
     from .discover.pipeline import split_held_out
@@ -161,6 +161,12 @@ def check_user_data(config: Mapping[str, Any]) -> None:
             load_trajectories_with_events(user["path"], user["events"], user["unlogged_inputs"])
         except TrajectoryDataError as error:
             raise TrajectoryDataError(f"invalid data at 'discovery.user_data.events': {error}") from None
+
+
+def _made_by_the_import(config: Mapping[str, Any], path: str) -> bool:
+    """Whether ``path`` is the record the historian import will write (checked as it is made)."""
+    h = config.get("historian")
+    return bool(h) and Path(path) == Path(config["output"]["results"]) / "historian" / h["name"] / "record.parquet"
 
 
 def check_historian(config: Mapping[str, Any]) -> None:

@@ -5,11 +5,12 @@ Each signal's values (converted to its target's unit) are averaged within each s
 empty (no value is carried across a gap).  The logged inputs (the line current u2, the
 anode-cathode distance u5 where mapped) must have a value at every step: a gap of up to
 ``max_gap_s`` holds the last value, a longer one cuts the record there, and each stretch between
-cuts is a trajectory.  An anode effect (the voltage above ``anode_effect_v``) leaves the voltage
-empty from its start to ``anode_effect_after_s`` after its end; a voltage still outside the
-contract's range, or a mass not positive, is left empty too.  Events (feeder shots, AlF3
-additions, taps) go on the record's clock (``time_s`` from the grid's start) in the trajectory
-they fall in; one outside every trajectory is left out.  Every such choice is counted in the
+cuts is a trajectory (or as many whole ones of ``trajectory_s`` as it holds).  An anode effect
+(the voltage above ``anode_effect_v``) leaves the voltage empty from its start to
+``anode_effect_after_s`` after its end; a voltage still outside the contract's range, or a mass
+not positive, is left empty too.  Events (feeder shots, AlF3 additions, taps) go on the record's
+clock (``time_s`` from the grid's start) in the trajectory they fall in; one outside every
+trajectory (in a cut or a left-over stretch) is left out.  Every such choice is counted in the
 report (:mod:`.report`).
 """
 

@@ -44,7 +44,7 @@ def report_markdown(report: dict) -> str:
         "- none"
     ]
     lines += ["", f"**Blanked** (outside the data contract's range), steps: {report['blanked'] or 'none'}"]
-    lines += ["", "**Events** (placed in a trajectory / left out: in a cut or past the record):"]
+    lines += ["", "**Events** (placed in a trajectory / left out: in a cut or a left-over stretch):"]
     lines += [f"- {k}: {v['placed']} / {v['left_out']}" for k, v in report["events"].items()] or ["- none"]
     return "\n".join(lines) + "\n"
 
