@@ -161,6 +161,25 @@ def check_template_dry_run(command, tmp_path):
     assert command in [t[2] for t in templates()]
 
 
+def check_historian_import(command, tmp_path):
+    """The historian block of docs/own-data.md as written, in a fresh copy, with test_historian's small
+    export, lab samples and events where the block says: the import runs and writes the contract's tables."""
+    from test_historian import EVENTS, LAB, TAGS, _export, _good_rows
+
+    [block] = [b for document in DOCUMENTS for _, b in blocks(document, "yaml") if b.startswith("historian:")]
+    historian = yaml.safe_load(block)["historian"]
+    workdir = repository_copy(tmp_path / "repository")
+    texts = {"export": _export(_good_rows()), "tags": TAGS, "lab": LAB, "events": EVENTS}
+    for key, text in texts.items():
+        (workdir / historian[key]).parent.mkdir(parents=True, exist_ok=True)
+        (workdir / historian[key]).write_text(text)
+    (workdir / command.split("--configfile ")[1].split()[0]).write_text(block)
+    result = run_command(workdir, command)
+    assert result.returncode == 0, result.stderr[-4000:]
+    folder = workdir / command.split()[3].rsplit("/", 1)[0]
+    assert (folder / "record.parquet").stat().st_size > 0 and "Anode effects" in (folder / "import.md").read_text()
+
+
 def check_cell_constants(command, tmp_path):
     (tmp_path / command.split()[-1]).write_text("physics: {cell: {ledge_area: 21.5}}\n")
     result = run_command(tmp_path, command)
@@ -354,6 +373,7 @@ FAST_CHECKS = {
     "snakemake --cores 2 results/potline/discovery/pot12/findings.json --configfile potline.yaml":
         check_template_dry_run,
     "python -m costa.cell_constants my.yaml": check_cell_constants,
+    "snakemake --cores 2 results/historian/pot12/record.parquet --configfile pot12.yaml": check_historian_import,
     "snakemake --cores 2 --unlock": check_resume,
     "snakemake --cores 2 --rerun-incomplete": check_resume,
     "snakemake --workflow-profile workflow/profiles/slurm": check_cluster,

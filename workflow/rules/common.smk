@@ -383,3 +383,9 @@ def split_search(wildcards):
         "screen": f"{prefix}/screen.pkl",
         "fits": [f"{prefix}/fit_{j}_of_{jobs}.pkl" for j in range(jobs)],
     }
+
+
+def historian_files(wildcards):
+    """The export, its tag map and, where given, its events log and lab samples."""
+    h = config["historian"]
+    return {k: h[k] for k in ("export", "tags", "events", "lab") if h.get(k)}

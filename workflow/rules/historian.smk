@@ -1,9 +1,3 @@
-def historian_files(wildcards):
-    """The export, its tag map and, where given, its events log and lab samples."""
-    h = config["historian"]
-    return {k: h[k] for k in ("export", "tags", "events", "lab") if h.get(k)}
-
-
 rule import_historian:
     """One pot's historian export on the model's step: the data contract's record and events
     (discovery.user_data reads them), and what was kept, dropped and cut."""
