@@ -9,7 +9,7 @@ import numpy as np
 __all__ = ["DiscoverySettings"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class DiscoverySettings:
     """How discovery decides; the same for every data set.  The config sets the window, the
     test thresholds, the term and gain limits, the rounds, the bootstrap and the seed
