@@ -112,9 +112,7 @@ class _Grid:
 
     def __init__(self, values: pd.DataFrame, tags: TagMap, settings: GridSettings, path: Path):
         self.tags, self.settings = tags, settings
-        current = values[
-            values["tag"].map(lambda t: tags.signals.get(t) is not None and tags.signals[t].target == "u2")
-        ]
+        current = values[values["tag"].isin([t for t, s in tags.signals.items() if s.target == "u2"])]
         if current.empty:
             raise ExportError(f"{path}: no value of the line current (u2) in the export: nothing to put on a grid")
         self.start = current["time"].min().floor(f"{settings.step_s}s")
