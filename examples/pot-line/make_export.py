@@ -22,7 +22,7 @@ import pandas as pd
 
 from costa import seeds
 from costa.config import DEFAULT_CONFIG, load_config
-from costa.discover.cases.tables import case_tables
+from costa.discover.cases.tables import case_table
 from costa.discover.cases.unshipped import find_case
 
 HERE = Path(__file__).resolve().parent
@@ -52,7 +52,7 @@ def _events(u: np.ndarray, dt: float, column: int, tag: str, per_t: float) -> pd
 def main(days: float, case: str, folder: Path) -> None:
     config = load_config(DEFAULT_CONFIG, overrides={"discovery": {"sensor_sets": {"pot_line": {
         "hours": 24.0 * days, "trajectories": 1, "held_out_trajectories": 1}}}})  # fmt: skip
-    train, _ = case_tables(config, find_case(case), "pot_line")
+    train = case_table(config, find_case(case), "pot_line", "train")
     u, dt = train[["u1", "u2", "u3", "u4", "u5"]].to_numpy(), config["simulation"]["dt_s"]
     rng = seeds.numpy_generator(config["seed"], 0, "examples/pot-line/export")
     seconds = train["time_s"].to_numpy()

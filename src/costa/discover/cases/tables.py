@@ -16,7 +16,7 @@ from ...simulate import SimulationSettings, simulate_set
 from .shipped import HiddenEffectCase
 from .unshipped import find_case
 
-__all__ = ["case_noise", "case_tables", "record_settings", "simulated_cells", "simulated_data"]
+__all__ = ["case_noise", "case_table", "case_tables", "record_settings", "simulated_cells", "simulated_data"]
 
 
 def case_tables(
@@ -30,17 +30,19 @@ def case_tables(
     std over the data set (the full set is then every state with the case's noise).
     """
     case = find_case(case) if isinstance(case, str) else case
+    return case_table(config, case, sensors, "train"), case_table(config, case, sensors, "held_out")
+
+
+def case_table(config: Mapping, case: HiddenEffectCase, sensors: str, split: str) -> pd.DataFrame:
+    """One ``split`` ("train" or "held_out") of :func:`case_tables`."""
     sensor_set, settings = record_settings(config, sensors)
     true, _ = case.models(model_from_config(config["physics"])[0])
-    tables = []
-    for split in ("train", "held_out"):
-        x, u = simulated_cells(config, case, sensors, split)
-        default = case_noise(true, x, u, sensor_set, case.noise)
-        stream = f"discovery/{case.name}/{split}"
-        noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
-        rng = seeds.numpy_generator(config["seed"], 0, noise)
-        tables.append(measure(true, x, u=u, dt=settings.dt, sensors=sensor_set, rng=rng, default_noise=default))
-    return tables[0], tables[1]
+    x, u = simulated_cells(config, case, sensors, split)
+    default = case_noise(true, x, u, sensor_set, case.noise)
+    stream = f"discovery/{case.name}/{split}"
+    noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
+    rng = seeds.numpy_generator(config["seed"], 0, noise)
+    return measure(true, x, u=u, dt=settings.dt, sensors=sensor_set, rng=rng, default_noise=default)
 
 
 def record_settings(config: Mapping, sensors: str) -> tuple[SensorSet, SimulationSettings]:
