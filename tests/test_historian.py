@@ -189,6 +189,22 @@ def test_a_short_input_gap_is_held_and_a_long_one_cut_whole(files):
     assert np.isclose(report["rows"], report["steps"])
 
 
+def test_the_hour_an_autumn_clock_change_repeats_is_read_in_order(files):
+    """Local stamps across 25 October 2026 in Oslo (03:00 summer time -> 02:00 winter time): the
+    repeated hour's stamps, in time order, are two different hours in UTC, one record without a gap."""
+    rows = [(t, tag, v, "good") for t in range(0, 4 * 3600, 10) for tag, v in (("LINE.AMPS", 140.0), ("POT.VOLT", 4.2))]
+    local = pd.Timestamp("2026-10-25 00:00", tz="UTC") + pd.to_timedelta([t for t, *_ in rows], unit="s")
+    stamps = local.tz_convert("Europe/Oslo").strftime("%Y-%m-%d %H:%M:%S")
+    export = "timestamp,tag,value,quality\n" + "".join(
+        f"{s},{tag},{v},{q}\n" for s, (_, tag, v, q) in zip(stamps, rows, strict=True)
+    )
+    paths = files(export=export)
+    grid = GridSettings(timezone="Europe/Oslo")
+    imported = import_historian(paths["export"], read_tag_map(paths["tags"]), grid)
+    assert imported.report["start_utc"] == "2026-10-25 00:00:00+00:00" and imported.report["trajectories"] == 1
+    assert imported.report["rows"] == 4 * 360 and not imported.report["cuts"]
+
+
 @pytest.mark.parametrize(("seconds", "trajectories", "left_over"), [(1800, 5, 0), (2400, 3, 120 + 60)])
 def test_stretches_are_cut_into_whole_trajectories_of_equal_length(files, seconds, trajectories, left_over):
     """trajectory_s cuts the 1 h before the outage and the 1.5 h after it into whole pieces (what

@@ -8,7 +8,8 @@
   the report time, hours later, only checks it).
 
 Stamps with an offset (``2026-03-01T05:00:05Z``, ``+01:00``) are read as such; stamps without one
-in the export's ``timezone``.  Every table comes back with a ``time`` column in UTC and ``row``,
+in the export's ``timezone``: the hour an autumn clock change repeats is told apart by the order
+of the stamps (written in time order, as an export is), an hour a spring change skips stops.  Every table comes back with a ``time`` column in UTC and ``row``,
 its row in the file (from 0 after the header), for the messages.
 """
 
@@ -69,7 +70,7 @@ def _times(path: Path, stamps: pd.Series, column: str, timezone: str) -> pd.Seri
             raise ExportError(f"{path}: column {column!r} at row {row} is not a time: {text[row]!r}")
         if not aware:
             try:
-                times = times.dt.tz_localize(timezone, ambiguous="raise", nonexistent="raise").dt.tz_convert("UTC")
+                times = _localised(times, timezone)
             except (ValueError, TypeError) as error:  # pytz/zoneinfo: an hour that is twice or never in local time
                 local = pd.to_datetime(text[rows], format="ISO8601")
                 row = int(_first_unlocalisable(local, timezone))
@@ -81,13 +82,21 @@ def _times(path: Path, stamps: pd.Series, column: str, timezone: str) -> pd.Seri
     return parsed.astype("datetime64[ns, UTC]")
 
 
+def _localised(times: pd.Series, timezone: str) -> pd.Series:
+    """Local stamps in UTC; the hour a clock change repeats told apart by the stamps' order (each run
+    of equal stamps, as several tags stamped at once, counted once)."""
+    new = (times != times.shift()).to_numpy()
+    first = times[new].dt.tz_localize(timezone, ambiguous="infer", nonexistent="raise").dt.tz_convert("UTC")
+    return pd.Series(first.to_numpy()[np.cumsum(new) - 1], index=times.index)
+
+
 def _first_unlocalisable(local: pd.Series, timezone: str) -> int:
     for row, stamp in local.items():
         try:
-            stamp.tz_localize(timezone, ambiguous="raise", nonexistent="raise")
+            stamp.tz_localize(timezone, ambiguous=True, nonexistent="raise")
         except (ValueError, TypeError):
             return row
-    return int(local.index[0])
+    return int(local.index[0])  # every stamp is one time alone: the repeated hour's order is what failed
 
 
 def _values(path: Path, table: pd.DataFrame, column: str, tags: pd.Series) -> pd.Series:
