@@ -156,10 +156,10 @@ class _Grid:
         for channel in CHANNELS:
             if channel in columns:
                 table[channel] = columns[channel][rows]
+        counts = self.values["tag"].value_counts()
         for tag, sig in self.tags.signals.items():
-            mine = self.values[self.values["tag"] == tag]
             report["tags"][tag] = {
-                "to": sig.target, "unit": sig.unit, "values": int(len(mine)),
+                "to": sig.target, "unit": sig.unit, "values": int(counts.get(tag, 0)),
                 "duplicates": int(self.duplicates.get(tag, 0)),
                 "steps_with_a_value": int(np.isfinite(columns[sig.target]).sum()),
             }  # fmt: skip

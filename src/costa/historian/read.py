@@ -9,8 +9,9 @@
 
 Stamps with an offset (``2026-03-01T05:00:05Z``, ``+01:00``) are read as such; stamps without one
 in the export's ``timezone``: the hour an autumn clock change repeats is told apart by the order
-of the stamps (written in time order, as an export is), an hour a spring change skips stops.  Every table comes back with a ``time`` column in UTC and ``row``,
-its row in the file (from 0 after the header), for the messages.
+of the stamps (written in time order, as an export is), an hour a spring change skips stops.
+Every table comes back with a ``time`` column in UTC and ``row``, its row in the file (from 0
+after the header), for the messages.
 """
 
 from __future__ import annotations
@@ -176,19 +177,16 @@ def read_lab(path: str | Path, timezone: str) -> pd.DataFrame:
     reported before it was taken, stops the import."""
     path = Path(path)
     table = _file(path)
-    for column in ("sample_time", "report_time"):
-        _column(path, table, column)
-    tag = table["tag"].astype("string").str.strip() if "tag" in table else None
-    if tag is None:
-        raise ExportError(f"{path}: no column 'tag'; the lab's file has sample_time, report_time, tag, value")
-    sampled = _times(path, table["sample_time"], "sample_time", timezone)
-    reported = _times(path, table["report_time"].fillna(table["sample_time"]), "report_time", timezone)
+    at, on, tags = (_column(path, table, name) for name in ("sample_time", "report_time", "tag"))
+    tag = table[tags].astype("string").str.strip()
+    sampled = _times(path, table[at], at, timezone)
+    reported = _times(path, table[on].fillna(table[at]), on, timezone)
     early = reported < sampled
     if early.any():
         row = int(np.flatnonzero(early.to_numpy())[0])
         raise ExportError(
-            f"{path}: tag {tag.iloc[row]!r} at row {row} was reported ({table['report_time'].iloc[row]}) before it "
-            f"was sampled ({table['sample_time'].iloc[row]})"
+            f"{path}: tag {tag.iloc[row]!r} at row {row} was reported ({table[on].iloc[row]}) before it "
+            f"was sampled ({table[at].iloc[row]})"
         )
     value = _values(path, table, _column(path, table, "value"), tag)
     return pd.DataFrame({"time": sampled, "tag": tag, "value": value, "row": table.index}).dropna(subset=["value"])
