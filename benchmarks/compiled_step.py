@@ -12,8 +12,12 @@
 3. With ``--case``, the stages of one ``plant`` case (``wall_conductivity`` by default) in this
    process, one thread: seconds of the screen, the candidates' fits and the gather, beside those
    measured on the last numpy tree (fb5c979, 2026-11-28, idle 2-core machine).
+4. With ``--flags``, the compiler's options (:data:`costa.compiled.kernel.CFLAGS`) against ``-O2`` (the
+   options until 2026-11-29): the filter screen's kernels of one ``partial`` case (``paper_liquidus``),
+   each kind of hypothesis a model, compiled into an empty cache and run on 2 trajectories, seconds
+   of each and whether the log-likelihoods are the same to the bit.
 
-    python benchmarks/compiled_step.py [--case [NAME]]
+    python benchmarks/compiled_step.py [--case [NAME]] [--flags]
 """
 
 from __future__ import annotations
@@ -156,15 +160,61 @@ def case_stages(case: str) -> None:
         print(f"   {stage:<30} {value:>11.1f} {NUMPY_STAGES[stage]:>9.1f} {NUMPY_STAGES[stage] / value:>6.1f}x")
 
 
+def compiler_flags() -> None:
+    import tempfile
+
+    from costa.compiled import kernel
+    from costa.discover.cases.tables import case_tables
+    from costa.discover.pipeline import discovery_route, search_settings
+    from costa.discover.sparse.filter.likelihood import _filter
+    from costa.discover.sparse.pipeline import checked_observations
+    from costa.sensors import declared_noise
+
+    config = load_config("config/config.yaml", "config/sensors.yaml")
+    name = "paper_liquidus/partial"
+    train, held = case_tables(config, "paper_liquidus", "partial")
+    settings = search_settings(config, name, discovery_route(config, name, [train, held]))
+    noise = declared_noise(config["discovery"]["sensor_sets"], "partial")
+    model = true_model()
+    obs = checked_observations(train, noise, "train", settings).with_start(model).subset(slice(0, 2))
+    hypotheses = candidate_hypotheses(model)
+    current, seconds, likelihoods = kernel.CFLAGS, {}, {}
+    for flags in (current, ("-O2", *current[2:])):
+        kernel.CFLAGS = flags
+        with tempfile.TemporaryDirectory() as cache:
+            os.environ["COSTA_KERNEL_CACHE"] = cache
+            started = time.perf_counter()
+            _filter(model, hypotheses, np.ones(len(hypotheses)), obs, settings.window, settings.walks, backward=False)
+            first = time.perf_counter() - started
+            started = time.perf_counter()
+            _, result = _filter(
+                model, hypotheses, np.ones(len(hypotheses)), obs, settings.window, settings.walks, backward=False
+            )
+            again = time.perf_counter() - started
+        options = " ".join(flags[: len(flags) - len(current) + 2])  # what differs from the shared options
+        seconds[options], likelihoods[flags] = (first - again, again), result.log_likelihood
+    kernel.CFLAGS = current
+    same = np.array_equal(*likelihoods.values(), equal_nan=True)
+    print(f"4. the filter screen's {len(hypotheses)} hypotheses on 2 partial trajectories, by compiler options")
+    print(f"   {'options':<22} {'compile s':>10} {'run s':>7}")
+    for options, (compiling, running) in seconds.items():
+        print(f"   {options:<22} {compiling:>10.1f} {running:>7.1f}")
+    (c_now, r_now), (c_before, r_before) = seconds.values()
+    print(f"   ratios -O2 / now: compile {c_before / c_now:.2f}x, run {r_before / r_now:.2f}x; the same bits: {same}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--case", nargs="?", const="wall_conductivity", help="also time one plant case's stages")
+    parser.add_argument("--flags", action="store_true", help="also compare the compiler's options with -O2")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     step_rates()
     sensitivity_rates()
     if args.case:
         case_stages(args.case)
+    if args.flags:
+        compiler_flags()
 
 
 if __name__ == "__main__":
