@@ -208,14 +208,32 @@ def test_unsuitable_data_get_one_clear_error(clean, default_config, corrupt, mes
         run_discovery(default_config, table, table, starting_model(default_config, "full"), "t", "measurements.csv")
 
 
-def test_a_single_trajectory_cannot_be_split(clean, tmp_path):
+def test_one_trajectory_is_cut_by_time_the_last_piece_held_out(clean, tmp_path):
+    """One pot's record: learned on its first pieces, held out on the last; the split in words; a record
+    too short to cut, or a fraction that holds out everything, is refused naming the file."""
     path = tmp_path / "one.csv"
-    to_table(clean.x[:1], clean.u[:1], 10.0).to_csv(path, index=False)
-    with pytest.raises(TrajectoryDataError, match="needs at least 2 trajectories"):
+    one = to_table(clean.x[:1], clean.u[:1], 10.0)
+    one.iloc[:1001].to_csv(path, index=False)
+    train, held_out, how = split_held_out(path, 0.34)  # 3 pieces of 333 samples, the first 2 left out
+    assert train.trajectory.unique().tolist() == [0, 1] and held_out.trajectory.unique().tolist() == [2]
+    assert (train.groupby("trajectory").size() == 333).all() and len(held_out) == 333
+    assert held_out.time_s.iloc[-1] == one.time_s.iloc[1000] and train.time_s.iloc[0] == one.time_s.iloc[2]
+    assert (held_out.step.to_numpy() == np.arange(333)).all()
+    assert np.array_equal(np.r_[train.x6.to_numpy(), held_out.x6.to_numpy()], one.x6.to_numpy()[2:1001])
+    assert how == (
+        "one trajectory cut by time into 3 of 333 samples (0.925 h, its first 2 samples left out): "
+        "the first 2 learned from, the last 1 held out"
+    )
+    one.iloc[:3].to_csv(path, index=False)
+    with pytest.raises(TrajectoryDataError, match="one trajectory of 3 samples cannot be cut into 4"):
         split_held_out(path, 0.25)
+    to_table(clean.x[:2], clean.u[:2], 10.0).to_csv(path, index=False)
+    with pytest.raises(TrajectoryDataError, match=r"one.csv: held_out_fraction 0.8 of 2 trajectories holds out every"):
+        split_held_out(path, 0.8)
     to_table(clean.x, clean.u, 10.0).to_csv(path, index=False)
-    train, held_out = split_held_out(path, 0.25)
+    train, held_out, how = split_held_out(path, 0.25)
     assert sorted(held_out.trajectory.unique()) == [4, 5] and train.trajectory.nunique() == 4
+    assert how == "6 trajectories: the first 4 learned from, the last 2 held out"
 
 
 def _run(config: dict, case: str | HiddenEffectCase):

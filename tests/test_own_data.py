@@ -71,7 +71,7 @@ def test_a_sparse_table_takes_the_estimator_route_and_needs_its_sensors_noise(ex
     table["x7"] = table.x7.where(np.arange(len(table)) % 30 == 0)
     path = tmp_path / "sparse.csv"
     table.drop(columns=["x2"]).to_csv(path, index=False)
-    train, held_out = split_held_out(path, 0.34)  # splitting works on any table of the contract
+    train, held_out, _ = split_held_out(path, 0.34)  # splitting works on any table of the contract
     with pytest.raises(
         TrajectoryDataError,
         match=r"sparse.csv: channel 'x7' is not sampled at every step, so its noise cannot be estimated from the "
@@ -121,7 +121,7 @@ def test_a_pot_voltage_out_of_the_plausible_range_is_named(example_config, tmp_p
 def test_the_worked_example_finds_the_heat_loss_of_400_step_data(example_config):
     """6 x 400 steps of another cell with a heat loss through the top the model lacks (make_data.py)."""
     user = example_config["discovery"]["user_data"]
-    train, held_out = split_held_out(REPOSITORY / user["path"], user["held_out_fraction"])
+    train, held_out, _ = split_held_out(REPOSITORY / user["path"], user["held_out_fraction"])
     assert train.trajectory.nunique() == 4 and held_out.trajectory.nunique() == 2
     start = starting_model(example_config, "full")
     assert start.params.k9 == 21.5 and start.params.k16 == 30.0  # the example's cell
@@ -167,7 +167,7 @@ def test_a_record_with_constant_line_current_and_no_tap_names_what_it_can(exampl
     table.to_csv(path, index=False, float_format="%.6g")
     with pytest.raises(TrajectoryDataError, match=r"missing column\(s\) \['u5'\].*unlogged_inputs with the value"):
         split_held_out(path, 1 / 3)
-    train, held_out = split_held_out(path, 1 / 3, {"u5": 0.05})
+    train, held_out, _ = split_held_out(path, 1 / 3, {"u5": 0.05})
     assert (train["u5"] == 0.05).all()
     start = starting_model(example_config, "full")
     meta = {"data": "x", "unlogged_inputs": {"u5": 0.05}}

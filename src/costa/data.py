@@ -29,6 +29,7 @@ import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -49,6 +50,7 @@ __all__ = [
     "load_trajectories",
     "measured_channels",
     "measured_trajectories",
+    "read_provenance",
     "time_step",
     "to_table",
     "write_trajectories",
@@ -84,6 +86,12 @@ def write_trajectories(table: pd.DataFrame, path: str | Path, provenance: Mappin
         fields.append(pa.field(name, pa.from_numpy_dtype(table[name].dtype), metadata=meta))
     schema = pa.schema(fields, metadata={"costa.provenance": json.dumps(provenance or {}, sort_keys=True)})
     pq.write_table(pa.Table.from_pandas(table, schema=schema, preserve_index=False), path)
+
+
+def read_provenance(path: str | Path) -> dict[str, Any]:
+    """The provenance :func:`write_trajectories` stored with a Parquet table ({} where none)."""
+    metadata = pq.read_schema(path).metadata or {}
+    return json.loads(metadata.get(b"costa.provenance", b"{}"))
 
 
 def load_trajectories(path: str | Path, unlogged: Mapping[str, float] | None = None) -> pd.DataFrame:

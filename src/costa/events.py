@@ -62,13 +62,15 @@ class EventKind:
     duration_s: tuple[float, float]
 
 
-#: The check ranges are generous plausible bounds, not one smelter's practice.  A tap: 0.5-5 t over
-#: 1-60 min (a pot makes about 1.07 t a day at 140 kA and 95 % current efficiency, by Faraday's law;
-#: Qatalum's 300 kA pots have a standard tap of 1903 kg).  An AlF3 addition: up to 100 kg (the largest
+#: The check ranges are generous plausible bounds, not one smelter's practice.  A tap: 0.1-5 t over
+#: 1-60 min (a pot makes about 1.07 t a day at 140 kA and 95 % current efficiency, by Faraday's law,
+#: tapped once or twice a day; the paper's cell, which makes half of that, run as a pot line with a
+#: feeder short of alumina, tapped 361 kg; Qatalum's 300 kA pots have a standard tap of 1903 kg; a
+#: tap in t logged as kg reads below 0.1 t).  An AlF3 addition: up to 100 kg (the largest
 #: of the simulated cells' AlF3 impulses, 10 kg/s for one 10 s step).  An alumina dose: up to 10 kg (a
 #: point feeder's shot is a few kg).  Doses and additions may last up to an hour, or no time at all.
 EVENT_KINDS: dict[str, EventKind] = {
-    "tap": EventKind("u4", "metal tapped", (500.0, 5000.0), (60.0, 3600.0)),
+    "tap": EventKind("u4", "metal tapped", (100.0, 5000.0), (60.0, 3600.0)),
     "alf3_addition": EventKind("u3", "AlF3 added", (0.0, 100.0), (0.0, 3600.0)),
     "alumina_dose": EventKind("u1", "Al2O3 added", (0.0, 10.0), (0.0, 3600.0)),
 }

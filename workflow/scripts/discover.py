@@ -5,7 +5,7 @@ import json
 import pandas as pd
 
 from costa import runtime
-from costa.data import channel_report, format_channel_report, load_trajectories
+from costa.data import channel_report, format_channel_report, load_trajectories, read_provenance
 from costa.discover.findings import findings, findings_markdown
 from costa.discover.pipeline import run_discovery, starting_model
 from costa.physics import constants_table
@@ -23,7 +23,11 @@ first_round = (snakemake.input.screen, list(snakemake.input.fits)) if "screen" i
 result = run_discovery(
     config, train, held_out, start, case, snakemake.input.train, snakemake.params.declared_noise, first_round
 )
-found = findings(result, case, start, snakemake.params.meta, channels, constants)
+meta = dict(snakemake.params.meta)
+how = read_provenance(snakemake.input.held_out).get("how")  # your data: how they were split
+if how:
+    meta["data"] += f"; {how}"
+found = findings(result, case, start, meta, channels, constants)
 with open(snakemake.output.findings, "w") as handle:
     json.dump(found, handle, indent=1)
 with open(snakemake.output.markdown, "w") as handle:

@@ -48,17 +48,45 @@ def starting_model(config: Mapping, name: str) -> CellModel:
 
 def split_held_out(
     path: str | Path, fraction: float, unlogged: Mapping[str, float] | None = None
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """A user's table split by trajectory: the last ``fraction`` of them are held out; ``unlogged``: inputs
-    the record lacks, held at their stated values (:func:`costa.data.load_trajectories`)."""
+) -> tuple[pd.DataFrame, pd.DataFrame, str]:
+    """A user's table split into trajectories to learn from and held-out ones, and the split in words.
+
+    Several trajectories: the last ``fraction`` of them (by id) are held out.  One trajectory (one
+    pot's record): it is cut by time into ``max(2, round(1 / fraction))`` pieces of equal length (its
+    first samples, fewer than the pieces, left out), learned on the first and held out on the last
+    ``fraction`` of them.  ``unlogged``: inputs the record lacks, held at their stated values
+    (:func:`costa.data.load_trajectories`)."""
     table = load_trajectories(path, unlogged)
     ids = np.sort(table["trajectory"].unique())
-    if len(ids) < 2:
-        raise TrajectoryDataError(
-            f"{path}: discovery needs at least 2 trajectories (one is held out to measure the gap), found {len(ids)}"
-        )
+    what = f"{len(ids)} trajectories"
+    if len(ids) == 1:
+        table, what = _cut_by_time(table, max(2, int(round(1 / fraction))))
+        ids = np.sort(table["trajectory"].unique())
     held = ids[len(ids) - max(1, int(round(fraction * len(ids)))) :]
-    return table[~table["trajectory"].isin(held)], table[table["trajectory"].isin(held)]
+    if len(ids) == len(held):
+        raise TrajectoryDataError(
+            f"{path}: held_out_fraction {fraction:g} of {len(ids)} trajectories holds out every one; "
+            "discovery needs one or more to learn from"
+        )
+    how = f"{what}: the first {len(ids) - len(held)} learned from, the last {len(held)} held out"
+    return table[~table["trajectory"].isin(held)], table[table["trajectory"].isin(held)], how
+
+
+def _cut_by_time(table: pd.DataFrame, pieces: int) -> tuple[pd.DataFrame, str]:
+    """One trajectory (of two samples or more) cut into ``pieces`` consecutive trajectories of equal
+    length (ids 0..pieces-1), and the cut in words."""
+    samples = len(table) // pieces
+    if samples < 2:
+        raise TrajectoryDataError(
+            f"one trajectory of {len(table)} samples cannot be cut into {pieces} to learn from and hold out"
+        )
+    dropped = len(table) - samples * pieces
+    cut = table.iloc[dropped:].reset_index(drop=True)
+    cut["trajectory"] = np.repeat(np.arange(pieces), samples)
+    cut["step"] = np.tile(np.arange(samples, dtype=np.int32), pieces)
+    hours = samples * float(np.diff(table["time_s"].to_numpy()[:2])[0]) / 3600
+    left_out = f", its first {dropped} samples left out" if dropped else ""
+    return cut, f"one trajectory cut by time into {pieces} of {samples} samples ({hours:.3g} h{left_out})"
 
 
 #: the paper's windows [0, 100), [100, 2500), [2500, 5000) as fractions of a trajectory's length
