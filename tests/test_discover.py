@@ -225,7 +225,7 @@ def test_one_trajectory_is_cut_by_time_the_last_piece_held_out(clean, tmp_path):
         "the first 2 learned from, the last 1 held out"
     )
     one.iloc[:3].to_csv(path, index=False)
-    with pytest.raises(TrajectoryDataError, match="one trajectory of 3 samples cannot be cut into 4"):
+    with pytest.raises(TrajectoryDataError, match="one.csv: one trajectory of 3 samples cannot be cut into 4"):
         split_held_out(path, 0.25)
     to_table(clean.x[:2], clean.u[:2], 10.0).to_csv(path, index=False)
     with pytest.raises(TrajectoryDataError, match=r"one.csv: held_out_fraction 0.8 of 2 trajectories holds out every"):

@@ -60,7 +60,7 @@ def split_held_out(
     ids = np.sort(table["trajectory"].unique())
     what = f"{len(ids)} trajectories"
     if len(ids) == 1:
-        table, what = _cut_by_time(table, max(2, int(round(1 / fraction))))
+        table, what = _cut_by_time(table, max(2, int(round(1 / fraction))), path)
         ids = np.sort(table["trajectory"].unique())
     held = ids[len(ids) - max(1, int(round(fraction * len(ids)))) :]
     if len(ids) == len(held):
@@ -72,19 +72,19 @@ def split_held_out(
     return table[~table["trajectory"].isin(held)], table[table["trajectory"].isin(held)], how
 
 
-def _cut_by_time(table: pd.DataFrame, pieces: int) -> tuple[pd.DataFrame, str]:
-    """One trajectory (of two samples or more) cut into ``pieces`` consecutive trajectories of equal
-    length (ids 0..pieces-1), and the cut in words."""
+def _cut_by_time(table: pd.DataFrame, pieces: int, path: str | Path) -> tuple[pd.DataFrame, str]:
+    """One trajectory (``path``'s) cut into ``pieces`` consecutive trajectories of equal length (ids
+    0..pieces-1), and the cut in words."""
     samples = len(table) // pieces
     if samples < 2:
         raise TrajectoryDataError(
-            f"one trajectory of {len(table)} samples cannot be cut into {pieces} to learn from and hold out"
+            f"{path}: one trajectory of {len(table)} samples cannot be cut into {pieces} to learn from and hold out"
         )
     dropped = len(table) - samples * pieces
     cut = table.iloc[dropped:].reset_index(drop=True)
     cut["trajectory"] = np.repeat(np.arange(pieces), samples)
     cut["step"] = np.tile(np.arange(samples, dtype=np.int32), pieces)
-    hours = samples * float(np.diff(table["time_s"].to_numpy()[:2])[0]) / 3600
+    hours = samples * time_step(table) / 3600
     left_out = f", its first {dropped} samples left out" if dropped else ""
     return cut, f"one trajectory cut by time into {pieces} of {samples} samples ({hours:.3g} h{left_out})"
 
