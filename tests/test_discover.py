@@ -222,7 +222,7 @@ def test_one_trajectory_is_cut_by_time_the_last_piece_held_out(clean, tmp_path):
     assert np.array_equal(np.r_[train.x6.to_numpy(), held_out.x6.to_numpy()], one.x6.to_numpy()[2:1001])
     assert how == (
         "one trajectory cut by time into 3 of 333 samples (0.925 h, its first 2 samples left out): "
-        "the first 2 learned from, the last 1 held out"
+        "2 learned from, the last 1 held out"
     )
     one.iloc[:3].to_csv(path, index=False)
     with pytest.raises(TrajectoryDataError, match="one.csv: one trajectory of 3 samples cannot be cut into 4"):
@@ -233,7 +233,7 @@ def test_one_trajectory_is_cut_by_time_the_last_piece_held_out(clean, tmp_path):
     to_table(clean.x, clean.u, 10.0).to_csv(path, index=False)
     train, held_out, how = split_held_out(path, 0.25)
     assert sorted(held_out.trajectory.unique()) == [4, 5] and train.trajectory.nunique() == 4
-    assert how == "6 trajectories: the first 4 learned from, the last 2 held out"
+    assert how == "6 trajectories: 4 learned from, the last 2 held out"
 
 
 def _run(config: dict, case: str | HiddenEffectCase):

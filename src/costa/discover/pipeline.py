@@ -68,7 +68,7 @@ def split_held_out(
             f"{path}: held_out_fraction {fraction:g} of {len(ids)} trajectories holds out every one; "
             "discovery needs one or more to learn from"
         )
-    how = f"{what}: the first {len(ids) - len(held)} learned from, the last {len(held)} held out"
+    how = f"{what}: {len(ids) - len(held)} learned from, the last {len(held)} held out"
     return table[~table["trajectory"].isin(held)], table[table["trajectory"].isin(held)], how
 
 
