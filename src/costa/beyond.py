@@ -24,7 +24,7 @@ import pandas as pd
 from . import seeds
 from .data import arrays, to_table
 from .discover.cases.shipped import add_noise
-from .discover.full_state.pipeline import DiscoveryResult
+from .discover.core.outcome import Outcome
 from .discover.pipeline import run_discovery, starting_model
 from .replicates import aggregate_table
 from .summary import summary_table
@@ -42,7 +42,7 @@ def noisy_table(table: pd.DataFrame, level_percent: float, seed: int, replicate:
 
 def discover_on_training_set(
     config: Mapping, train: pd.DataFrame, held_out: pd.DataFrame, name: str, floor_noise: float
-) -> DiscoveryResult:
+) -> Outcome:
     """Discovery from the ablated PBM on ``train`` (plus ``floor_noise`` of each state's std,
     from stream ``beyond/<name>/floor_noise``); the gap is measured on ``held_out``."""
     if floor_noise:

@@ -21,10 +21,11 @@ from ..metrics import EvaluationSettings, windows_from_fractions
 from ..physics import CellModel, model_from_config
 from ..variables import INPUTS
 from .core.library import constant_inputs
+from .core.outcome import Outcome
 from .core.settings import DiscoverySettings
-from .full_state.pipeline import DiscoveryResult, run_full_state_discovery
+from .full_state.pipeline import run_full_state_discovery
 from .route import Route, record_route
-from .sparse.pipeline import SparseResult, run_sparse_discovery
+from .sparse.pipeline import run_sparse_discovery
 
 log = logging.getLogger(__name__)
 
@@ -164,7 +165,7 @@ def run_discovery(
     source: str,
     declared_noise: Mapping[str, float] | None = None,
     first_round: tuple[str | Path, Sequence[str | Path]] | None = None,
-) -> DiscoveryResult | SparseResult:
+) -> Outcome:
     """Discover on ``train``, then measure the gap of the starting and corrected models on ``held_out``.
 
     Tables with every state at every step take the weak-form route (:mod:`.full_state`); any

@@ -3,7 +3,7 @@
 It reads dense trajectories of the eight states (a shipped case's ``full`` sensor set, or
 your own complete table), tests each state equation in weak form against the estimated
 noise, screens and fits hypotheses in rounds, and writes a
-:class:`.pipeline.DiscoveryResult` (rounds, gap on held-out trajectories, noise floor)
+:class:`..core.outcome.Outcome` (rounds, gap on held-out trajectories, noise floor)
 for the findings.  It imports the shared core (:mod:`costa.discover.core`), never the
 sparse route.
 """

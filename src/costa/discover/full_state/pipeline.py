@@ -5,7 +5,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import ClassVar
 
 import numpy as np
 import pandas as pd
@@ -14,11 +13,12 @@ from ...data import TrajectoryDataError, arrays, time_step
 from ...metrics import EvaluationSettings, state_scale
 from ...physics import CellModel
 from ..core.noise import estimate_noise
+from ..core.outcome import Outcome
 from ..core.settings import DiscoverySettings
 from .gap import gap_tables, noise_floor
-from .search import Round, discover
+from .search import discover
 
-__all__ = ["DiscoveryData", "DiscoveryResult", "run_full_state_discovery"]
+__all__ = ["DiscoveryData", "run_full_state_discovery"]
 
 
 @dataclass(frozen=True)
@@ -30,21 +30,6 @@ class DiscoveryData:
     x_held_out: np.ndarray
     u_held_out: np.ndarray
     dt: float
-
-
-@dataclass
-class DiscoveryResult:
-    measured: ClassVar[str] = "full"  # every state (:class:`..core.outcome.Outcome`)
-    rounds: list[Round]
-    noise: np.ndarray
-    corrected: CellModel
-    gap: pd.DataFrame
-    per_state: pd.DataFrame
-    floor: dict[str, float]
-    seconds: float
-    windows: dict[str, tuple[int, int]]  # the gap's windows [start, stop) in steps of the held-out data
-    dt: float  # the data's time step [s]
-    constant_inputs: tuple[str, ...] = ()  # inputs that did not vary in the training data
 
 
 def _check_suitable(x: np.ndarray, window: int, source: str) -> None:
@@ -71,7 +56,7 @@ def run_full_state_discovery(
     evaluation_for: Callable[[int], EvaluationSettings],
     source: str,
     floor_rng: np.random.Generator,
-) -> DiscoveryResult:
+) -> Outcome:
     """Discover on ``train`` in weak form, then measure the gap of the starting and corrected models
     on ``held_out``.
 
@@ -104,7 +89,8 @@ def run_full_state_discovery(
         settings=evaluation,
         rng=floor_rng,
     )
-    return DiscoveryResult(
+    return Outcome(
+        measured="full",
         rounds=rounds,
         noise=noise,
         corrected=corrected,

@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import ClassVar
 
 import numpy as np
 import pandas as pd
@@ -23,6 +22,7 @@ import pandas as pd
 from ...data import TrajectoryDataError, measured_trajectories
 from ...metrics import EvaluationSettings
 from ...physics import CellModel
+from ..core.outcome import Outcome
 from ..core.settings import DiscoverySettings
 from .filter.search import discover_sparse, fit_share, screen_round
 from .gap import measured_gap, measured_noise_floor
@@ -41,27 +41,7 @@ from .split import (
     write_shot_screen,
 )
 
-__all__ = ["SparseResult", "fit_first_round", "observations", "run_sparse_discovery", "screen_first_round"]
-
-
-@dataclass
-class SparseResult:
-    """What a run on partial measurements found; ``noise`` (C,) per measured channel."""
-
-    measured: ClassVar[str] = "partial"  # some channels (:class:`..core.outcome.Outcome`)
-    rounds: list[SparseRound]
-    channels: tuple[str, ...]
-    noise: np.ndarray
-    corrected: CellModel
-    gap: pd.DataFrame
-    per_state: pd.DataFrame  # per measured channel: model, window, channel, error
-    floor: dict[str, float]
-    seconds: float
-    windows: dict[str, tuple[int, int]]
-    dt: float
-    start_steps: int
-    restart_steps: int | None = None  # the gap's forecasts restarted that often (:func:`.gap.forecast_pieces`)
-    constant_inputs: tuple[str, ...] = ()  # inputs that did not vary in the training data
+__all__ = ["fit_first_round", "observations", "run_sparse_discovery", "screen_first_round"]
 
 
 def observations(table: pd.DataFrame, declared_noise: Mapping[str, float], source: str) -> Observations:
@@ -175,7 +155,7 @@ def run_sparse_discovery(
     rng: np.random.Generator,
     first_round: tuple[str | Path, Sequence[str | Path]] | None = None,
     restart_s: float | None = None,
-) -> SparseResult:
+) -> Outcome:
     """Discover on ``train``; the gap of the starting and corrected models on ``held_out``.
 
     ``evaluation`` gives the gap's windows; the state a rollout starts from is estimated
@@ -212,7 +192,8 @@ def run_sparse_discovery(
     floor = measured_noise_floor(
         corrected, held, scale=scale, settings=evaluation, start_steps=start_steps, rng=rng, restart_steps=restart
     )
-    return SparseResult(
+    return Outcome(
+        measured="partial",
         rounds=rounds,
         channels=obs.channels,
         noise=obs.noise,
