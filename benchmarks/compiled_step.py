@@ -178,7 +178,7 @@ def compiler_flags() -> None:
     model = true_model()
     obs = checked_observations(train, noise, "train", settings).with_start(model).subset(slice(0, 2))
     hypotheses = candidate_hypotheses(model)
-    current, seconds, likelihoods = kernel.CFLAGS, {}, {}
+    current, cache_before, seconds, likelihoods = kernel.CFLAGS, os.environ.get("COSTA_KERNEL_CACHE"), {}, {}
     for flags in (current, ("-O2", *current[2:])):
         kernel.CFLAGS = flags
         with tempfile.TemporaryDirectory() as cache:
@@ -194,6 +194,10 @@ def compiler_flags() -> None:
         options = " ".join(flags[: len(flags) - len(current) + 2])  # what differs from the shared options
         seconds[options], likelihoods[flags] = (first - again, again), result.log_likelihood
     kernel.CFLAGS = current
+    if cache_before is None:
+        os.environ.pop("COSTA_KERNEL_CACHE")
+    else:
+        os.environ["COSTA_KERNEL_CACHE"] = cache_before
     same = np.array_equal(*likelihoods.values(), equal_nan=True)
     print(f"4. the filter screen's {len(hypotheses)} hypotheses on 2 partial trajectories, by compiler options")
     print(f"   {'options':<22} {'compile s':>10} {'run s':>7}")

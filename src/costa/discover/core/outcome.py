@@ -54,6 +54,4 @@ class Outcome:
     constant_inputs: tuple[str, ...] = ()  # inputs that did not vary in the training data
     channels: tuple[str, ...] = ()  # partial: the measured channels
     start_steps: int = 0  # partial: the first samples of each held-out cell, which place its first state
-    restart_steps: int | None = (
-        None  # partial: the gap's forecasts restarted that often (:func:`..sparse.gap.forecast_pieces`)
-    )
+    restart_steps: int | None = None  # partial: the gap's forecasts restarted every this many steps
