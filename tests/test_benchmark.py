@@ -99,9 +99,10 @@ def test_the_signal_is_zero_without_an_effect_and_grows_with_its_size(smoke_conf
     assert signal(smoke_config, null, "full")["signal"] == 0.0
 
 
-def _findings(accepted, named=(), outcome="no effect", flagged=(), listed=()):
+def _findings(accepted, named=(), outcome="no effect", flagged=(), listed=(), not_fitted=()):
     rounds = [{"correction": {"hypothesis": listed[0]} if listed else None,
-               "equivalent": [{"hypothesis": h} for h in listed[1:]]}]  # fmt: skip
+               "equivalent": [{"hypothesis": h} for h in listed[1:]],
+               "not_fitted": [{"hypothesis": h} for h in not_fitted]}]  # fmt: skip
     return {"accepted": list(accepted), "named": list(named), "outcome": outcome, "flagged_channels": list(flagged),
             "rounds": rounds}  # fmt: skip
 
@@ -113,6 +114,10 @@ def _findings(accepted, named=(), outcome="no effect", flagged=(), listed=()):
         (_findings(["term:x"], ["term:z", "term:x"], "found", ["x2"]), "wrong"),
         (_findings(["term:x"], [], "not identifiable", ["x2"], ["term:z", "term:x"]), "not identifiable, truth listed"),
         (_findings(["term:x"], [], "not identifiable", ["x2"], ["term:z"]), "not identifiable, truth not listed"),
+        (
+            _findings(["term:x"], [], "not identifiable", ["x2"], ["term:z"], ["term:x"]),
+            "not identifiable, truth listed",
+        ),
         (_findings(["term:x"], [], "unexplained", ["x2"]), "unexplained"),
         (_findings(["term:x"]), "missed"),
         (_findings([]), "quiet"),

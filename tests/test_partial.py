@@ -67,6 +67,24 @@ def test_a_runner_up_without_a_score_says_why():
     assert fit_outcome(True, 0.5, True) == "removes 50% of the excess"
 
 
+@pytest.mark.parametrize(("free_gain", "excluded"), [(990.0, True), (996.0, False), (1200.0, False)])
+def test_a_hypothesis_not_fitted_stands_while_its_free_delta_could_explain_as_much(free_gain, excluded):
+    """A free delta bounds what any closed form of its hypothesis gains: one not fitted is excluded where
+    its free delta gained, on the screened trajectories, less than the chosen closed form gained there
+    (1000 on the first two of three) by more than half the margin (10); not where it comes within it."""
+    from costa.discover.sparse.filter.search import Screen, could_explain_as_well
+    from costa.discover.sparse.rounds import HypothesisScore
+
+    h = next(h for h in candidate_hypotheses(true_model()) if h.key == "term:ledge_energy")
+    other = HypothesisScore(hypothesis=h, scale=1.0, walk=0.0, log_likelihood_gain=free_gain)
+    screen = Screen(
+        tests=[], log_likelihood=np.array([-500.0, -300.0, -9.0]), states=np.zeros((3, 1, 8)), candidates=[],
+        seed=0, others=[other], screened=2,
+    )  # fmt: skip
+    chosen = SimpleNamespace(log_likelihood=np.array([100.0, 100.0, 1e6]))
+    assert could_explain_as_well(chosen, screen, margin=10.0) == ([] if excluded else [h])
+
+
 @pytest.mark.integration
 def test_paper_liquidus_is_named_from_partial_measurements(default_config):
     """No ledge, no masses measured: bath and wall temperature, metal, cell voltage and composition.

@@ -67,27 +67,22 @@ def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_conf
     assert terms["1"] == pytest.approx(-20570.0, rel=0.05), terms
 
 
-@pytest.mark.parametrize(("removed", "applied"), [(0.39, False), (0.6, True)])
-def test_an_unexplained_rounds_best_correction_is_applied_where_it_removes_half_the_excess(
-    default_config, removed, applied
-):
-    """As on the filter route (``min_explained``, 0.5): a best fit that leaves the voltage beyond its
-    noise is applied where it removes at least half the uncorrected fit's excess, else left out, and
-    the verdict says so.  On paper_liquidus at seed 1 (plant) a best fit removing 39 % was applied, and
-    the corrected model's long-window error rose by 12.5 times the gap above the floor."""
+def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | None = None):
+    """A plant round whose screen put ``term:bath_energy`` (one constant) first, at a BIC gain of 490,
+    fitted to remove ``removed`` of the voltage's 2 noise variances in excess; ``unfitted``: another
+    hypothesis screened with a constant at the given BIC gain, not fitted."""
     from costa.discover.core.settings import DiscoverySettings
     from costa.discover.sparse.innovations import ChannelTest
     from costa.discover.sparse.observed import NOMINAL_STATE
     from costa.discover.sparse.shooting.fit import ShootingFit
     from costa.discover.sparse.shooting.screen import ScreenedForm
 
-    config = copy.deepcopy(default_config)
+    config = copy.deepcopy(config)
     config["discovery"]["sensor_sets"]["plant"].update(hours=2, trajectories=2, held_out_trajectories=1)
     train, _ = case_tables(config, "no_effect", "plant")
     obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "plant")
     model = starting_model(config, "full")
-    h = next(h for h in candidate_hypotheses(model) if h.key == "term:bath_energy")
-    constant = next(f for f in h.features() if f.name == "1")
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     starts, samples = np.tile(NOMINAL_STATE, (2, 2, 1)), {"U_cell": obs.y.shape[1] * 2}
 
     def shot(theta, cost, chi2):
@@ -102,6 +97,14 @@ def test_an_unexplained_rounds_best_correction_is_applied_where_it_removes_half_
             iterations=1,
         )
 
+    def screened(key, bic_gain):
+        h = hypotheses[key]
+        constant = next(f for f in h.features() if f.name == "1")
+        return ScreenedForm(
+            hypothesis=h, features=(constant,), theta=np.array([-100.0]), gain=bic_gain + 10, bic_gain=bic_gain,
+            chi2={"U_cell": 1.0},
+        )  # fmt: skip
+
     base = shot([], 1000.0, 3.0)  # 2 noise variances in excess
     fit = shot([-100.0], 500.0, 3.0 - 2.0 * removed)
     flagged = ChannelTest(
@@ -114,14 +117,39 @@ def test_an_unexplained_rounds_best_correction_is_applied_where_it_removes_half_
         whiteness_z=0.0,
         flagged=True,
     )
-    form = ScreenedForm(
-        hypothesis=h, features=(constant,), theta=np.array([-100.0]), gain=500.0, bic_gain=490.0, chi2={"U_cell": 1.0}
-    )
-    screen = shooting_round.ShotScreen(tests=[flagged], base=base, forms=[form], candidates=[form])
+    form = screened("term:bath_energy", 490.0)
+    forms = [form] + ([screened(*unfitted)] if unfitted else [])
+    screen = shooting_round.ShotScreen(tests=[flagged], base=base, forms=forms, candidates=[form])
     settings = DiscoverySettings(shooting_cells=2, bootstrap=50)
-    decided = shooting_round.decide_by_shooting(
-        model, screen, [shooting_round.ShotFit(fit=fit, covariance=np.eye(1), tests=[])], obs, settings
+    at_noise = [replace(flagged, chi2_per_dof=3.0 - 2.0 * removed, flagged=removed < 1)]
+    return shooting_round.decide_by_shooting(
+        model, screen, [shooting_round.ShotFit(fit=fit, covariance=np.eye(1), tests=at_noise)], obs, settings
     )
+
+
+@pytest.mark.parametrize(("removed", "applied"), [(0.39, False), (0.6, True)])
+def test_an_unexplained_rounds_best_correction_is_applied_where_it_removes_half_the_excess(
+    default_config, removed, applied
+):
+    """As on the filter route (``min_explained``, 0.5): a best fit that leaves the voltage beyond its
+    noise is applied where it removes at least half the uncorrected fit's excess, else left out, and
+    the verdict says so.  On paper_liquidus at seed 1 (plant) a best fit removing 39 % was applied, and
+    the corrected model's long-window error rose by 12.5 times the gap above the floor."""
+    decided = _decided_by_one_fit(default_config, removed)
     assert decided.verdict.startswith("unexplained: the best correction, term:bath_energy")
     assert (decided.chosen is not None) == applied
     assert decided.verdict.endswith("not applied") != applied
+
+
+@pytest.mark.parametrize(("gain", "named"), [(None, True), (300.0, True), (420.0, False)])
+def test_a_name_stands_only_where_every_hypothesis_the_screen_cannot_exclude_was_fitted(default_config, gain, named):
+    """The bath's missing heat loss fitted to the voltage's noise is named where no other hypothesis was
+    screened, or one of other physics screened far below it (300 of 490: more than ``screen_window``, 0.2,
+    below); one screened within the window and not fitted leaves the round not identifiable, the correction
+    applied and the unfitted hypothesis listed."""
+    decided = _decided_by_one_fit(default_config, 1.0, None if gain is None else ("property:ledge_area", gain))
+    assert (decided.named is not None) == named, decided.verdict
+    assert decided.chosen is not None and decided.chosen.hypothesis.key == "term:bath_energy"
+    assert [h.key for h in decided.not_fitted] == ([] if named else ["property:ledge_area"])
+    if not named:
+        assert "the screen could not exclude property:ledge_area, not fitted" in decided.verdict

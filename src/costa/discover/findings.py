@@ -155,6 +155,7 @@ def _sparse_round(index: int, r: Round) -> dict[str, Any]:
         "named": None,
         "correction": None,
         "equivalent": [_sparse_candidate(c, r.model) for c in r.equivalent],
+        "not_fitted": [{"hypothesis": h.key, "description": h.describe(r.model)} for h in r.not_fitted],
         "alternatives": [
             _sparse_candidate(c, r.model) for c in r.ranking if c is not r.chosen and c not in r.equivalent
         ][:5],
@@ -493,6 +494,9 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
         lines += [
             f"- `{e['hypothesis']}`: `{e['closed_form']}` (BIC gain {e['bic_gain']:.0f})" for e in r["equivalent"]
         ]
+    if r.get("not_fitted"):
+        lines += ["", "Not excluded by the screen and not fitted (no name stands while they stand):"]
+        lines += [f"- `{h['hypothesis']}`: {h['description']}" for h in r["not_fitted"]]
 
     if r.get("measure_next"):
         lines += ["", "What to measure next (the expected separation of the best explanation from the nearest other, "

@@ -58,7 +58,8 @@ def _correct(f) -> bool | None:
 
 def judged(f) -> str:
     """A run on a simulated case against what is hidden in it (its ``accepted`` names): right, wrong, not
-    identifiable (the truth listed among the equivalents or not), unexplained or missed; for a null case,
+    identifiable (the truth listed among the correction, its equivalents and the hypotheses not fitted,
+    or not), unexplained or missed; for a null case,
     quiet, a false alarm (flagged, not named) or a false name."""
     named, accepted = f["named"], f.get("accepted", [])
     flagged = f.get("flagged_equations", f.get("flagged_channels", []))
@@ -68,7 +69,10 @@ def judged(f) -> str:
         return "right" if named[0] in accepted else "wrong"
     if f["outcome"].startswith("not identifiable"):
         listed = {
-            c["hypothesis"] for r in f["rounds"] for c in [r.get("correction") or {}, *r.get("equivalent", [])] if c
+            c["hypothesis"]
+            for r in f["rounds"]
+            for c in [r.get("correction") or {}, *r.get("equivalent", []), *r.get("not_fitted", [])]
+            if c
         }
         return "not identifiable, truth listed" if listed & set(accepted) else "not identifiable, truth not listed"
     return "unexplained" if flagged else "missed"

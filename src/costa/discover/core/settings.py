@@ -47,5 +47,10 @@ class DiscoverySettings:
     # (of the states alone from the data, then of all together) of :func:`..sparse.shooting.fit.shooting_fit`
     shooting_cells: int = 0
     shooting_refine: int = 3
+    # ... and every other whose screened BIC gain is within shooting_window of the best's (a share of it): the
+    # screen cannot exclude those; at most shooting_fits fits in all, and a name stands only where every
+    # hypothesis the screen cannot exclude was fitted (those not fitted are listed)
+    shooting_window: float = 0.2
+    shooting_fits: int = 8
     shooting_iterations: tuple[int, int] = (8, 30)
     seed: int | np.random.SeedSequence = 0  # the search's random stream (bootstrap, noise draws)

@@ -121,6 +121,8 @@ class SparseRound:
     form_tolerated: bool = False  # the chosen correction's form error is small: named "form incomplete"
     name: Hypothesis | None = None  # what the chosen correction is named as, where not its own hypothesis
     route: str = "filter"  # how the round was decided: "filter" (:mod:`.filter`) or "shooting" (:mod:`.shooting`)
+    # hypotheses the screen could not exclude that were not fitted (of other physics than the chosen one): no name
+    not_fitted: list[Hypothesis] = field(default_factory=list)
 
     @classmethod
     def quiet(cls, model: CellModel, tests: list[ChannelTest]) -> SparseRound:

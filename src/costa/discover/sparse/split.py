@@ -52,6 +52,8 @@ def write_screen(screen: Screen, start, path: str | Path) -> None:
         "log_likelihood": screen.log_likelihood,
         "states": screen.states,
         "candidates": [_score_record(s) for s in screen.candidates],
+        "others": [_score_record(s) for s in screen.others],
+        "screened": screen.screened,
         "seed": screen.seed,
         "start": start,
     }
@@ -65,6 +67,7 @@ def read_screen(path: str | Path, model: CellModel) -> tuple[Screen, Any]:
     start = record.pop("start")
     record["tests"] = [ChannelTest(**t) for t in record["tests"]]
     record["candidates"] = [_score(s, hypotheses) for s in record["candidates"]]
+    record["others"] = [_score(s, hypotheses) for s in record["others"]]
     return Screen(**record), start
 
 

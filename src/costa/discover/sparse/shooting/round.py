@@ -8,13 +8,16 @@ composition not logged at every step), the first round runs:
 2. on the first ``shooting_cells`` cells, the uncorrected model fitted by multiple shooting
    (:mod:`.fit`) and every hypothesis' closed form of at most three terms screened
    linearised at that fit (:func:`.screen.screen_forms`); the ``shooting_refine`` best by
-   BIC gain and the ``shooting_refine`` best by the channels' predicted excess go on;
+   BIC gain and the ``shooting_refine`` best by the channels' predicted excess go on, and every
+   other the screen cannot exclude (:func:`not_excluded`), to ``shooting_fits`` fits in all;
 3. each of those fitted by shooting through the continuity stages to the filter's process noise
    (separate jobs: :mod:`..split`), with its coefficients' covariance and channel tests;
 4. the fits ranked (:func:`.screen.ranked_fits`): the first is named where it leaves every
    channel at its noise, or removes nearly all of the excess ("form incomplete"), and no fit of
    other physics comes within :data:`.screen.MARGIN` of its BIC gain; a fit of other physics
-   within it leaves the round undecided; one that leaves a channel beyond its noise unexplained.
+   within it leaves the round undecided; one that leaves a channel beyond its noise unexplained;
+   a hypothesis the screen could not exclude and that was not fitted, of other physics than the
+   first, leaves it undecided too (listed: a name stands only where every such one was fitted).
    The best correction is applied either way where it removes at least ``min_explained`` of the
    excess, as on the filter route.
 
@@ -33,7 +36,7 @@ import numpy as np
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import constant_inputs
-from ...core.naming import removal
+from ...core.naming import removal, same_physics
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, innovation_tests
 from ..measure_next import measure_next
@@ -43,8 +46,8 @@ from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fi
 from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms
 
 __all__ = [
-    "ShotFit", "ShotScreen", "by_excess", "decide_by_shooting", "fit_by_shooting", "screen_by_shooting",
-    "screened_forms", "shooting_cells",
+    "ShotFit", "ShotScreen", "by_excess", "decide_by_shooting", "fit_by_shooting", "not_excluded",
+    "screen_by_shooting", "screened_forms", "shooting_cells",
 ]  # fmt: skip
 
 #: the segments' length [s]
@@ -72,6 +75,10 @@ class ShotScreen:
     @property
     def flagged(self) -> list[str]:
         return [t.channel for t in self.tests if t.flagged]
+
+    def unfitted(self, window: float) -> list[ScreenedForm]:
+        """The forms with terms the screen cannot exclude (:func:`not_excluded`) that were not fitted."""
+        return [f for f in not_excluded(self.forms, window) if all(f is not c for c in self.candidates)]
 
 
 @dataclass(frozen=True)
@@ -113,7 +120,21 @@ def screened_forms(
     )
     top = settings.shooting_refine
     chosen = {id(f): f for f in forms[:top] + by_excess(forms)[:top] if f.features}
+    for form in not_excluded(forms, settings.shooting_window):
+        if len(chosen) >= settings.shooting_fits:
+            break
+        chosen.setdefault(id(form), form)
     return base, forms, list(chosen.values())
+
+
+def not_excluded(forms: Sequence[ScreenedForm], window: float) -> list[ScreenedForm]:
+    """The screened forms with terms that the screen cannot exclude: those whose screened BIC gain is within
+    ``window`` (a share) of the best one's.  The screen is linearised at the uncorrected model's fit, where
+    its gains are a small share of what the fits gain (300 000 against 55 million), and its order among
+    forms that come close differs from the fits': on alumina_feeder's plant record the feeder's gain
+    screened 6th, at 0.89 of the best, and the round named the alumina flow it left unfitted."""
+    best = max((f.bic_gain for f in forms if f.features), default=0.0)
+    return [f for f in forms if f.features and best > 0 and f.bic_gain >= (1.0 - window) * best]
 
 
 def by_excess(forms: Sequence[ScreenedForm]) -> list[ScreenedForm]:
@@ -191,12 +212,12 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             score=HypothesisScore(hypothesis=h, scale=1.0, walk=0.0, log_likelihood_gain=form.gain / 2), states=states, features=features, coefficients=fit.theta, samples=samples, inclusion=None, corrected=corrected,
             tests_after=shot.tests, log_likelihood=None, bic_gain=gain, rescued=0, explained=1.0 - fit.excess / base.excess if base.excess > 0 else 0.0,
         )  # fmt: skip
-    hourly = few.u[:, :: round(SEGMENT_S / few.dt)]
+    x, u = base.starts.reshape(-1, 8), few.u[:, :: round(SEGMENT_S / few.dt)].reshape(-1, 5)
     ranking = ranked_fits(
         fitted,
         model,
-        x=base.starts.reshape(-1, 8),
-        u=hourly.reshape(-1, 5),
+        x=x,
+        u=u,
         penalty=penalty,
         excess_before=base.excess,
         settings=settings,
@@ -230,15 +251,29 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         return SparseRound.unexplained_round(
             model, tests, order, verdict, measure_next=recommended, chosen=chosen if applied else None
         )
-    if rivals:
-        recommended = next_measured([chosen, *rivals])
+    unfitted = [
+        f.hypothesis
+        for f in screen.unfitted(settings.shooting_window)
+        if not same_physics(f.hypothesis.corrected(model, list(f.features), f.theta), chosen.corrected, model, x, u)
+    ]
+    if rivals or unfitted:
+        recommended = next_measured([chosen, *rivals]) if rivals else []
         keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
-        verdict = f"not identifiable: {keys} fit the measured channels on {cells} within {MARGIN:g} of BIC gain"
+        verdict = (
+            f"not identifiable: {keys} fit the measured channels on {cells} within {MARGIN:g} of BIC gain"
+            if rivals
+            else f"not identifiable: {keys} is the best fit on {cells}"
+        )
+        if unfitted:
+            verdict += (
+                f", and the screen could not exclude {', '.join(h.key for h in unfitted)}, not fitted "
+                f"(at most {settings.shooting_fits} fits)"
+            )
         verdict += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
         separated = recommended[0].channel if recommended else None
         return SparseRound(
             model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, identifiable=False, separated_by=separated, verdict=f"{verdict}; the correction {effect}",
-            measure_next=recommended,
+            measure_next=recommended, not_fitted=unfitted,
         )  # fmt: skip
     name = _hypothesis(model, ranking.names[0])
     what = name.describe(model)
