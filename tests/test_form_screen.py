@@ -6,6 +6,7 @@ import numpy as np
 
 from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.naming import balance_moved, causes_through
+from costa.discover.core.outcome import Decision
 from costa.discover.sparse.shooting.fit import ShootingFit, states_eliminated
 from costa.discover.sparse.shooting.screen import FittedForm, _forward, ranked_fits
 from costa.physics import operating_points
@@ -101,15 +102,16 @@ def test_fits_at_their_noise_are_ranked_by_bic_and_only_rivals_of_other_physics_
 
     ranking = ranked_fits([same, flagged, sink, free], model, x, u, PENALTY, EXCESS)
     assert ranking.order == [sink, same, flagged]
-    assert ranking.verdict == "named: term:alf3_mass (the same physics: ['part:alf3_neutralisation'])"
+    assert ranking.decision() is Decision.NAMED and ranking.names == ["term:alf3_mass", "part:alf3_neutralisation"]
+    assert ranking.decision(unfitted=True) is Decision.NOT_IDENTIFIABLE  # a hypothesis the screen left standing
     ranking = ranked_fits([same, other, sink], model, x, u, PENALTY, EXCESS)
-    assert ranking.rivals == [other] and ranking.verdict.startswith("undecided among")
+    assert ranking.rivals == [other] and ranking.decision() is Decision.NOT_IDENTIFIABLE
     other = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 489.0, {"x6": 1.0, "c3": 0.7})
-    assert ranked_fits([other, sink], model, x, u, PENALTY, EXCESS).verdict == "named: term:alf3_mass"
-    assert ranked_fits([flagged, free], model, x, u, PENALTY, EXCESS).verdict.startswith(
-        "unexplained: the best correction, input:u3"
-    )
-    assert ranked_fits([free], model, x, u, PENALTY, EXCESS).verdict == "nothing: no fit pays its terms"
+    ranking = ranked_fits([other, sink], model, x, u, PENALTY, EXCESS)
+    assert ranking.decision() is Decision.NAMED and ranking.names == ["term:alf3_mass"]
+    ranking = ranked_fits([flagged, free], model, x, u, PENALTY, EXCESS)
+    assert ranking.order == [flagged] and ranking.decision() is Decision.UNEXPLAINED
+    assert ranked_fits([free], model, x, u, PENALTY, EXCESS).decision() is Decision.UNEXPLAINED  # none pays
     lopsided = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 800.0, {"x6": 1.0}, cells=(0.995, 0.005))
     assert ranked_fits([lopsided, sink], model, x, u, PENALTY, EXCESS).order == [sink]
     even = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 800.0, {"x6": 1.0}, cells=(0.9, 0.1))
@@ -127,9 +129,9 @@ def test_a_fit_that_moves_one_balance_alone_is_named_as_the_flow_missing_from_it
     chi2 = {"x6": 1.0, "U_cell": 1.0}
     freezing = _fitted(model, hypotheses, "part:bath_freezing_heat", -20570.0, 5000.0, chi2)
     assert balance_moved(freezing.corrected, model, x, u) == "bath_energy"
-    assert ranked_fits([freezing], model, x, u, PENALTY, EXCESS).verdict == (
-        "named: term:bath_energy, fitted as part:bath_freezing_heat"
-    )
+    ranking = ranked_fits([freezing], model, x, u, PENALTY, EXCESS)
+    assert ranking.decision() is Decision.NAMED and ranking.names == ["term:bath_energy", "part:bath_freezing_heat"]
+    assert ranking.equivalent == [freezing]  # fitted as the heat of freezing
     for key, coefficient in (
         ("part:bath_conductivity", -0.1),
         ("input:u4", -0.1),
@@ -148,7 +150,8 @@ def test_a_property_that_moves_one_balance_alone_is_named_as_itself(model):
     x, u = operating_points(np.random.default_rng(0), 20)
     capacity = _fitted(model, hypotheses, "property:bath_heat_capacity", 0.1124, 5000.0, {"x6": 1.0, "U_cell": 1.0})
     assert balance_moved(capacity.corrected, model, x, u) == "bath_energy"
-    assert ranked_fits([capacity], model, x, u, PENALTY, EXCESS).verdict == "named: property:bath_heat_capacity"
+    ranking = ranked_fits([capacity], model, x, u, PENALTY, EXCESS)
+    assert ranking.decision() is Decision.NAMED and ranking.names == ["property:bath_heat_capacity"]
 
 
 def test_a_voltage_fit_is_named_as_the_parts_that_act_on_the_cell_only_through_the_voltage(model):
@@ -169,12 +172,12 @@ def test_a_voltage_fit_is_named_as_the_parts_that_act_on_the_cell_only_through_t
     for part in ("electric_power", "freezing_rate", "bath_ledge_heat", "liquidus_temperature", "bath_conductivity"):
         assert causes_through(part, model, x, u) == [], part
     voltage = _fitted(model, hypotheses, "part:cell_voltage", 0.05, 5000.0, {"x6": 1.0, "U_cell": 1.0})
-    assert ranked_fits([voltage], model, x, u, PENALTY, EXCESS).verdict == (
-        "named: part:bath_conductivity, fitted as part:cell_voltage (the same physics: "
-        "['part:bubble_coverage', 'part:bubble_thickness', 'part:bubble_voltage'])"
-    )
+    ranking = ranked_fits([voltage], model, x, u, PENALTY, EXCESS)
+    assert ranking.decision() is Decision.NAMED and ranking.equivalent == [voltage]  # fitted as the voltage
+    assert ranking.names == [f"part:{c}" for c in causes] + ["part:cell_voltage"]
     conductivity = _fitted(model, hypotheses, "part:bath_conductivity", -0.1, 5000.0, {"x6": 1.0, "U_cell": 1.0})
-    assert ranked_fits([conductivity], model, x, u, PENALTY, EXCESS).verdict == "named: part:bath_conductivity"
+    ranking = ranked_fits([conductivity], model, x, u, PENALTY, EXCESS)
+    assert ranking.decision() is Decision.NAMED and ranking.names == ["part:bath_conductivity"]
 
 
 def test_a_fit_that_removes_nearly_all_the_excess_is_named_with_its_forms_small_error(model):
@@ -184,10 +187,8 @@ def test_a_fit_that_removes_nearly_all_the_excess_is_named_with_its_forms_small_
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     x, u = operating_points(np.random.default_rng(0), 20)
     small = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 1.5})
-    assert ranked_fits([small], model, x, u, PENALTY, 20.0).verdict == (
-        "named: input:u3 (the same physics: ['term:alf3_mass']); form incomplete: it leaves {'U_cell': 1.5} "
-        "(noise variances)"
-    )
+    ranking = ranked_fits([small], model, x, u, PENALTY, 20.0)
+    assert ranking.decision() is Decision.FORM_INCOMPLETE and ranking.names == ["input:u3", "term:alf3_mass"]
     large = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 1.6})
-    assert ranked_fits([large], model, x, u, PENALTY, 20.0).verdict.startswith("unexplained")
-    assert ranked_fits([small], model, x, u, PENALTY, 1.0).verdict.startswith("unexplained")
+    assert ranked_fits([large], model, x, u, PENALTY, 20.0).decision() is Decision.UNEXPLAINED
+    assert ranked_fits([small], model, x, u, PENALTY, 1.0).decision() is Decision.UNEXPLAINED

@@ -119,7 +119,11 @@ def test_no_private_name_is_imported_across_modules():
         ("full_state", "from ..sparse import search\n", "full_state/ imports costa.discover.sparse (sparse)"),
         ("sparse", "import costa.discover.full_state.weak_form\n", "sparse/ imports costa.discover.full_state"),
         ("sparse", "from .. import pipeline\n", "sparse/ imports costa.discover (the top level)"),
-        ("core", "from ...discover.full_state.search import Round\n", "core/ imports costa.discover.full_state"),
+        (
+            "core",
+            "from ...discover.full_state.search import FullStateRound\n",
+            "core/ imports costa.discover.full_state",
+        ),
         (
             "sparse/filter",
             "from ..shooting.fit import shooting_fit\n",

@@ -526,14 +526,17 @@ def test_a_correction_that_leaves_a_small_form_error_is_named_with_its_form_inco
     no channel more than half a noise variance beyond noise (and says so); not where it removes
     less, not where what it leaves is large (96 % of a huge excess removed, 48 times the noise
     variance left: paper_liquidus on a pot line's record named the anode-cathode distance so),
-    and never where a rival is as good."""
+    and never where a rival is as good.  A correction that leaves a large error is unexplained
+    even where a rival fits as well: the rule every route follows (:func:`conclude`)."""
+    from costa.discover.core.naming import conclude
+    from costa.discover.core.outcome import Decision
     from costa.discover.sparse.filter.search import _small_form_error
     from costa.discover.sparse.innovations import ChannelTest
     from costa.discover.sparse.rounds import SparseRound
 
     settings = DiscoverySettings()
 
-    def round_(explained, chi2, identifiable=True):
+    def round_(explained, chi2, undecided=False):
         flagged = [
             ChannelTest(
                 channel="U_cell",
@@ -547,23 +550,16 @@ def test_a_correction_that_leaves_a_small_form_error_is_named_with_its_form_inco
             )
         ]
         chosen = SimpleNamespace(hypothesis="property:current_efficiency", explained=explained, tests_after=flagged)
-        tolerated = _small_form_error(chosen, settings)
+        decision = conclude(left=True, tolerated=_small_form_error(chosen, settings), undecided=undecided)
         return SparseRound(
-            model=None,
-            tests=[],
-            ranking=[],
-            chosen=chosen,
-            equivalent=[],
-            identifiable=identifiable,
-            separated_by=None,
-            verdict="",
-            form_tolerated=tolerated,
+            model=None, tests=[], ranking=[], chosen=chosen, equivalent=[], decision=decision, verdict=""
         )
 
     assert round_(0.97, 1.3).named == "property:current_efficiency" and round_(0.97, 1.3).form_incomplete
     assert round_(0.6, 1.3).named is None and not round_(0.6, 1.3).form_incomplete
-    assert round_(0.96, 48.3).named is None
-    assert round_(0.97, 1.3, identifiable=False).named is None
+    assert round_(0.96, 48.3).named is None and round_(0.96, 48.3).decision is Decision.UNEXPLAINED
+    assert round_(0.97, 1.3, undecided=True).named is None and not round_(0.97, 1.3, undecided=True).identifiable
+    assert round_(0.96, 48.3, undecided=True).decision is Decision.UNEXPLAINED
 
 
 @pytest.mark.integration

@@ -16,7 +16,8 @@ was found, :mod:`.reference` trains CoSTA on the same data as a reference.
 """
 
 from .cases.shipped import CASES, HiddenEffectCase, add_noise
+from .core.outcome import Decision, Outcome, Round
 from .core.settings import DiscoverySettings
-from .full_state.search import Round, discover
+from .full_state.search import discover
 
-__all__ = ["CASES", "DiscoverySettings", "HiddenEffectCase", "Round", "add_noise", "discover"]
+__all__ = ["CASES", "Decision", "DiscoverySettings", "HiddenEffectCase", "Outcome", "Round", "add_noise", "discover"]

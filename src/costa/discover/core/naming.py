@@ -10,11 +10,12 @@ from ...observe import SENSED_PART, observe
 from ...physics import BALANCES, PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
 from .hypotheses import PREFERENCE, Hypothesis
+from .outcome import Decision
 from .settings import DiscoverySettings
 
 __all__ = [
-    "balance_moved", "causes_through", "decide", "fit_outcome", "naming_order", "removal", "same_physics",
-    "small_form_error",
+    "balance_moved", "causes_through", "conclude", "decide", "fit_outcome", "naming_order", "removal",
+    "same_physics", "small_form_error",
 ]  # fmt: skip
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
@@ -57,6 +58,27 @@ def small_form_error(removed: float, left: float, settings: DiscoverySettings) -
     samples flag such an error; a correction that leaves 50 times the noise variance, though it
     removed 96 % of a far larger excess, is not one."""
     return removed >= settings.form_removed and left <= settings.form_excess
+
+
+def conclude(*, left: bool, tolerated: bool, undecided: bool) -> Decision:
+    """What a round concludes whose best correction explains enough of the disagreement (before this:
+    nothing beyond noise, quiet; no correction that explains enough, unexplained), the rule every route
+    follows, in this order:
+
+    1. the best correction leaves a channel (or equation) beyond its noise (``left``) and its form
+       error is not small (``tolerated``: :func:`small_form_error`): unexplained, whatever else fits as
+       well (what is missing may be an explanation that did not fit, or more than one effect);
+    2. a fit of other physics is as good, or a hypothesis the screen could not exclude was not
+       fitted (``undecided``): not identifiable (the best correction applied, nothing named);
+    3. named, its form incomplete where it leaves channels beyond noise.
+
+    The full-state route passes ``left`` False: its next round tests what a closed form left, with
+    the richer term library, where a sparse route's next round would explain what is left of a guess."""
+    if left and not tolerated:
+        return Decision.UNEXPLAINED
+    if undecided:
+        return Decision.NOT_IDENTIFIABLE
+    return Decision.FORM_INCOMPLETE if left else Decision.NAMED
 
 
 def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:

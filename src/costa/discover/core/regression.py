@@ -25,6 +25,7 @@ __all__ = [
     "coefficient_samples",
     "independent_columns",
     "resample_weights",
+    "selected_in_half",
     "selection_frequency",
     "solve_subset",
     "stepwise",
@@ -171,6 +172,16 @@ def selection_frequency(system: GramSystem, weights: np.ndarray, **selection) ->
     for G, b, zz, rows in zip(*system.totals(weights), strict=True):
         inclusion[list(stepwise(G, b, float(zz), float(rows), **selection).selected)] += 1
     return inclusion / len(weights)
+
+
+def selected_in_half(
+    system: GramSystem, resamples: int, rng: np.random.Generator, **selection
+) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """The bootstrap of both routes' closed forms: ``resamples`` resamples of the groups (weights (R, g)),
+    how often forward selection picks each term over them (P,), and the terms it picks in at least half."""
+    weights = resample_weights(len(system.zz), resamples, rng)
+    inclusion = selection_frequency(system, weights, **selection)
+    return weights, inclusion, [i for i in range(len(inclusion)) if inclusion[i] >= 0.5]
 
 
 def coefficient_samples(system: GramSystem, chosen: Sequence[int], weights: np.ndarray) -> np.ndarray:

@@ -13,7 +13,7 @@ from ...data import TrajectoryDataError, arrays, time_step
 from ...metrics import EvaluationSettings, state_scale
 from ...physics import CellModel
 from ..core.noise import estimate_noise
-from ..core.outcome import Outcome
+from ..core.outcome import Outcome, compared_models
 from ..core.settings import DiscoverySettings
 from .gap import gap_tables, noise_floor
 from .search import discover
@@ -68,36 +68,20 @@ def run_full_state_discovery(
     started = time.perf_counter()
     rounds, noise = discover(start, data.x, data.u, data.dt, settings)
     seconds = time.perf_counter() - started
-    corrected = next((r.chosen.corrected for r in reversed(rounds) if r.chosen is not None), start)
+    models = compared_models(rounds, start)
+    corrected = models.get("corrected model", start)
     evaluation = evaluation_for(data.x_held_out.shape[1])
     scale = state_scale(data.x)
-    models = (
-        {"starting model": start, "corrected model": corrected} if corrected is not start else {"starting model": start}
-    )
     gap, per_state = gap_tables(
         models, data.x_held_out, u=data.u_held_out, dt=data.dt, scale=scale, settings=evaluation
     )
     # the held-out trajectories' own noise: their sensors (or their noise level) may differ
     held_out_noise = estimate_noise(data.x_held_out)
     floor = noise_floor(
-        corrected,
-        data.x_held_out,
-        u=data.u_held_out,
-        dt=data.dt,
-        noise=held_out_noise,
-        scale=scale,
-        settings=evaluation,
-        rng=floor_rng,
-    )
+        corrected, data.x_held_out, u=data.u_held_out, dt=data.dt, noise=held_out_noise, scale=scale,
+        settings=evaluation, rng=floor_rng,
+    )  # fmt: skip
     return Outcome(
-        measured="full",
-        rounds=rounds,
-        noise=noise,
-        corrected=corrected,
-        gap=gap,
-        per_state=per_state,
-        floor=floor,
-        seconds=seconds,
-        windows=dict(evaluation.windows),
-        dt=data.dt,
-    )
+        measured="full", rounds=rounds, noise=noise, corrected=corrected, gap=gap, per_state=per_state, floor=floor,
+        seconds=seconds, windows=dict(evaluation.windows), dt=data.dt,
+    )  # fmt: skip

@@ -41,20 +41,14 @@ from ...variables import STATES
 from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
 from ..core.hypotheses import Hypothesis, candidate_hypotheses
 from ..core.library import Feature, constant_inputs
-from ..core.naming import decide, removal
+from ..core.naming import conclude, decide, removal
 from ..core.noise import estimate_noise
-from ..core.regression import (
-    GramSystem,
-    coefficient_samples,
-    independent_columns,
-    resample_weights,
-    selection_frequency,
-    solve_subset,
-)
+from ..core.outcome import Decision, Round
+from ..core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ..core.settings import DiscoverySettings
 from .weak_form import EquationTest, WeakForm, equation_tests
 
-__all__ = ["Candidate", "Round", "discover"]
+__all__ = ["Candidate", "FullStateRound", "discover"]
 
 #: the relative change a property or an input's gain may take in a window's estimate: beyond
 #: it, it is not a correction
@@ -78,29 +72,23 @@ class Candidate(FittedTerms):
     samples: np.ndarray | None = None  # (resamples, terms) bootstrap coefficients around the refined values
 
 
-@dataclass
-class Round:
-    """What one round found (or that it found nothing); ``rich``: it used the larger library."""
+@dataclass(kw_only=True)
+class FullStateRound(Round):
+    """What one round found (or that it found nothing) on every state (:class:`..core.outcome.Round`):
+    ``where``, the operating variables each flagged equation's residual correlates with most;
+    ``rich``: it used the larger library; ``window``: steps per weak-form window of its tests."""
 
-    model: CellModel
     tests: list[EquationTest]
-    where: dict[str, list[tuple[str, float]]]
     ranking: list[Candidate]
     chosen: Candidate | None
     equivalent: list[Candidate]
-    verdict: str
+    where: dict[str, list[tuple[str, float]]]
     rich: bool = False
-    window: int = 0  # steps per weak-form window of this round's tests
-    identifiable: bool = True  # False: an explanation of other physics is as good; ``chosen`` corrects, unnamed
+    window: int = 0
 
     @property
     def flagged(self) -> list[str]:
         return [t.state for t in self.tests if t.flagged]
-
-    @property
-    def named(self) -> Hypothesis | None:
-        """The chosen explanation, where the data tell it from every other as good (:func:`..core.naming.decide`)."""
-        return self.chosen.hypothesis if self.chosen is not None and self.identifiable else None
 
 
 def _groups(n: int, windows: int, blocks: int) -> np.ndarray:
@@ -281,9 +269,9 @@ def _fit(problem: _Problem, h: Hypothesis, model: CellModel, settings: Discovery
     rng = np.random.default_rng(seed)
     library = h.features(rich)
     system, kept = _explain(problem, h, model, _measure(problem, h, model, settings.refine_iterations), library)
-    weights = resample_weights(len(system.zz), settings.bootstrap, rng)
-    inclusion = selection_frequency(system, weights, max_terms=settings.max_terms, min_gain=settings.min_gain)
-    terms = [i for i in range(len(kept)) if inclusion[i] >= 0.5]
+    weights, inclusion, terms = selected_in_half(
+        system, settings.bootstrap, rng, max_terms=settings.max_terms, min_gain=settings.min_gain
+    )
     G, b, _, _ = system.total()
     refined = None
     while True:
@@ -352,7 +340,7 @@ def _where(
 def discover_round(
     model: CellModel, problem: _Problem, *, settings: DiscoverySettings, rng: np.random.Generator,
     rich: bool = False, named: Sequence[str] = (),
-) -> Round:  # fmt: skip
+) -> FullStateRound:  # fmt: skip
     """One round on the current model (see the module docstring); ``rich``: the larger term
     library; ``named``: the keys of the hypotheses earlier rounds named."""
     window = problem.form.window
@@ -360,11 +348,12 @@ def discover_round(
     tests = equation_tests(z0 * problem.scale, problem.scale, settings.z_threshold, settings.min_excess)
     flagged = [i for i, t in enumerate(tests) if t.flagged]
 
-    def nothing_named(verdict: str, where=None, ranking=()) -> Round:
+    def nothing_named(verdict: str, where=None, ranking=()) -> FullStateRound:
         """A round that corrects nothing: nothing disagrees, or nothing explains what does."""
-        return Round(
+        return FullStateRound(
             model=model, tests=tests, where=where or {}, ranking=list(ranking), chosen=None, equivalent=[],
-            verdict=verdict, rich=rich, window=window,
+            verdict=verdict, decision=Decision.UNEXPLAINED if flagged else Decision.QUIET, rich=rich,
+            window=window,
         )  # fmt: skip
 
     if not flagged:
@@ -410,25 +399,18 @@ def discover_round(
     x, u = problem.left_x[:, ::16], problem.left_u[:, ::16]
     chosen, equivalent, rivals = decide(good, named, model, x, u)
     effect = removal(chosen.explained, "the excess residual")
+    decision = conclude(left=False, tolerated=False, undecided=bool(rivals))
     what = chosen.hypothesis.describe(model)
-    if rivals:
+    if decision is Decision.NOT_IDENTIFIABLE:
         keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
         what = (
             f"not identifiable: {keys} explain the equations equally well (within {settings.equivalence:g} of BIC "
             f"gain), and they are different physics; the best fit, {chosen.hypothesis.key}, is applied"
         )
-    return Round(
-        model=model,
-        tests=tests,
-        where=where,
-        ranking=ranking,
-        chosen=chosen,
-        equivalent=equivalent,
-        verdict=f"{what}; the correction {effect}",
-        rich=rich,
-        window=window,
-        identifiable=not rivals,
-    )
+    return FullStateRound(
+        model=model, tests=tests, where=where, ranking=ranking, chosen=chosen, equivalent=equivalent,
+        verdict=f"{what}; the correction {effect}", decision=decision, rich=rich, window=window,
+    )  # fmt: skip
 
 
 def _first_disagreeing_scale(model, x, u, dt, noise, settings: DiscoverySettings, rng) -> _Problem:
@@ -454,7 +436,7 @@ def _first_disagreeing_scale(model, x, u, dt, noise, settings: DiscoverySettings
 
 def discover(
     model: CellModel, x: np.ndarray, u: np.ndarray, dt: float, settings: DiscoverySettings
-) -> tuple[list[Round], np.ndarray]:
+) -> tuple[list[FullStateRound], np.ndarray]:
     """Rounds of discovery until no equation disagrees, nothing explains it, a round cannot name what
     explains it (its best correction applied, as on sparse data), or ``max_rounds``.
 
@@ -462,7 +444,7 @@ def discover(
     """
     rng = np.random.default_rng(settings.seed)
     noise = estimate_noise(x)
-    rounds: list[Round] = []
+    rounds: list[FullStateRound] = []
     current = model
     rich = False
     for _ in range(settings.max_rounds):
@@ -470,7 +452,7 @@ def discover(
         named = [r.chosen.hypothesis.key for r in rounds if r.chosen is not None]
         found = discover_round(current, problem, settings=settings, rng=rng, rich=rich, named=named)
         rounds.append(found)
-        if found.chosen is None or not found.identifiable:  # a later round would build on an unnamed cause
+        if found.named is None:  # a later round would build on an unnamed cause
             break
         current = found.chosen.corrected
         # a closed form that leaves its own equations disagreeing: try richer forms next

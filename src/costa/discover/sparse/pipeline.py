@@ -22,7 +22,7 @@ import pandas as pd
 from ...data import TrajectoryDataError, measured_trajectories
 from ...metrics import EvaluationSettings
 from ...physics import CellModel
-from ..core.outcome import Outcome
+from ..core.outcome import Outcome, compared_models
 from ..core.settings import DiscoverySettings
 from .filter.search import discover_sparse, fit_share, screen_round
 from .gap import measured_gap, measured_noise_floor
@@ -182,9 +182,9 @@ def run_sparse_discovery(
         obs = replace(obs, start=searched)
         rounds = discover_sparse(start, obs, settings, (screen, read_fits(first_round[1], start, obs)))
     seconds = time.perf_counter() - started
-    corrected = next((r.corrected for r in reversed(rounds) if r.corrected is not None), start)
+    models = compared_models(rounds, start)
+    corrected = models.get("corrected model", start)
     scale = np.nanstd(obs.y.reshape(-1, len(obs.channels)), axis=0, ddof=1)
-    models = {"starting model": start} | ({"corrected model": corrected} if corrected is not start else {})
     restart = round(restart_s / held.dt) if restart_s else None
     gap, per_channel = measured_gap(
         models, held, scale=scale, settings=evaluation, start_steps=start_steps, restart_steps=restart
@@ -193,17 +193,7 @@ def run_sparse_discovery(
         corrected, held, scale=scale, settings=evaluation, start_steps=start_steps, rng=rng, restart_steps=restart
     )
     return Outcome(
-        measured="partial",
-        rounds=rounds,
-        channels=obs.channels,
-        noise=obs.noise,
-        corrected=corrected,
-        gap=gap,
-        per_state=per_channel,
-        floor=floor,
-        seconds=seconds,
-        windows=dict(evaluation.windows),
-        dt=obs.dt,
-        start_steps=start_steps,
-        restart_steps=restart,
-    )
+        measured="partial", rounds=rounds, channels=obs.channels, noise=obs.noise, corrected=corrected, gap=gap,
+        per_state=per_channel, floor=floor, seconds=seconds, windows=dict(evaluation.windows), dt=obs.dt,
+        start_steps=start_steps, restart_steps=restart,
+    )  # fmt: skip

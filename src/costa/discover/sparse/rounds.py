@@ -19,6 +19,7 @@ from ...physics import CellModel
 from ..core.fitted_terms import FittedTerms
 from ..core.hypotheses import Hypothesis
 from ..core.library import Feature
+from ..core.outcome import Decision, Round
 from ..core.settings import DiscoverySettings
 from .innovations import ChannelTest, innovation_tests
 from .measure_next import Recommendation
@@ -74,10 +75,6 @@ class SparseCandidate(FittedTerms):
     placed: Observations | None = None
 
     @property
-    def rank_key(self) -> tuple[int, float]:
-        return self.rescued, self.bic_gain
-
-    @property
     def hypothesis(self) -> Hypothesis:
         return self.score.hypothesis
 
@@ -96,39 +93,32 @@ class BudgetComparison:
     matched: bool
 
 
-@dataclass
-class SparseRound:
-    """What one round on partial measurements found.
+@dataclass(kw_only=True)
+class SparseRound(Round):
+    """What one round on partial measurements found (:class:`..core.outcome.Round`).
 
-    ``ranking``: the fitted candidates, best BIC gain first; ``equivalent``: those as good as
-    the chosen one; ``identifiable`` False when they are different physics (nothing is named
-    then, though ``chosen`` corrects the model); ``separated_by``: the unmeasured channel that
-    would tell them apart; ``dispersion``: the best correction's remaining misfit (on the filter
-    route), by which the equivalence window was widened.
+    ``separated_by``: the unmeasured channel that would tell the chosen correction from those as good;
+    ``dispersion``: the best correction's remaining misfit (on the filter route), by which the
+    equivalence window was widened; ``not_fitted``: hypotheses the screen could not exclude that were
+    not fitted (of other physics than the chosen one): while they stand, nothing is named.
     """
 
-    model: CellModel
     tests: list[ChannelTest]
     ranking: list[SparseCandidate]
     chosen: SparseCandidate | None
     equivalent: list[SparseCandidate]
-    identifiable: bool
-    separated_by: str | None
-    verdict: str
+    separated_by: str | None = None
     dispersion: float = 1.0
     at_budget: list[BudgetComparison] = field(default_factory=list)
     measure_next: list[Recommendation] = field(default_factory=list)
-    form_tolerated: bool = False  # the chosen correction's form error is small: named "form incomplete"
-    name: Hypothesis | None = None  # what the chosen correction is named as, where not its own hypothesis
     route: str = "filter"  # how the round was decided: "filter" (:mod:`.filter`) or "shooting" (:mod:`.shooting`)
-    # hypotheses the screen could not exclude that were not fitted (of other physics than the chosen one): no name
     not_fitted: list[Hypothesis] = field(default_factory=list)
 
     @classmethod
     def quiet(cls, model: CellModel, tests: list[ChannelTest]) -> SparseRound:
         """A round in which no measured channel disagrees beyond noise: nothing to explain."""
         return cls(
-            model=model, tests=tests, ranking=[], chosen=None, equivalent=[], identifiable=True, separated_by=None,
+            model=model, tests=tests, ranking=[], chosen=None, equivalent=[], decision=Decision.QUIET,
             verdict="no measured channel disagrees beyond noise",
         )  # fmt: skip
 
@@ -140,8 +130,8 @@ class SparseRound:
         """A round in which channels disagree and nothing is named: ``chosen``, where given, is the best
         correction, applied without a name."""
         return cls(
-            model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=[], identifiable=True,
-            separated_by=None, verdict=verdict, dispersion=dispersion, measure_next=measure_next,
+            model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=[], decision=Decision.UNEXPLAINED,
+            verdict=verdict, dispersion=dispersion, measure_next=measure_next,
         )  # fmt: skip
 
     @property
@@ -152,26 +142,6 @@ class SparseRound:
     def unexplained(self) -> list[str]:
         """The measured channels that still disagree beyond noise after the chosen correction."""
         return [t.channel for t in self.chosen.tests_after if t.flagged] if self.chosen is not None else []
-
-    @property
-    def form_incomplete(self) -> bool:
-        """Named although its closed form leaves channels disagreeing (it removes nearly all of their excess)."""
-        return self.named is not None and bool(self.unexplained)
-
-    @property
-    def named(self) -> Hypothesis | None:
-        """The chosen explanation, where the measurements tell it from the others, no rival matches it
-        with as many terms, and it explains the channels (all of them, or nearly all of their excess:
-        ``form incomplete``): its own hypothesis, or the flow missing from the one balance it moves (``name``)."""
-        if self.chosen is None or not self.identifiable:
-            return None
-        if self.unexplained and not self.form_tolerated:
-            return None
-        return self.name or self.chosen.hypothesis
-
-    @property
-    def corrected(self) -> CellModel | None:
-        return self.chosen.corrected if self.chosen is not None else None
 
 
 def channel_tests(

@@ -50,34 +50,15 @@ from ....physics import CellModel
 from ...core.fitted_terms import KEEP_LEVEL, weakest_term
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ...core.naming import (
-    decide,
-    fit_outcome,
-    naming_order,
-    removal,
-    same_physics,
-    small_form_error,
-)
-from ...core.regression import (
-    GramSystem,
-    coefficient_samples,
-    independent_columns,
-    resample_weights,
-    selection_frequency,
-    solve_subset,
-)
+from ...core.naming import conclude, decide, fit_outcome, naming_order, removal, same_physics, small_form_error
+from ...core.outcome import Decision
+from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest
 from ..measure_next import Recommendation, measure_next
 from ..observations import Observations
 from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests
-from .likelihood import (
-    likelihood_gains,
-    mostly_lost,
-    refine_coefficients,
-    score_hypotheses,
-    smooth_hypothesis,
-)
+from .likelihood import likelihood_gains, mostly_lost, refine_coefficients, score_hypotheses, smooth_hypothesis
 
 __all__ = [
     "Screen",
@@ -145,9 +126,9 @@ def _closed_form(
     per_block = max(1, int(np.ceil(a / settings.blocks_per_trajectory)))
     groups = (np.arange(n)[:, None] * settings.blocks_per_trajectory + np.arange(a)[None, :] // per_block).ravel()
     system = GramSystem.from_design(rows, np.nan_to_num(target * weight).ravel(), groups)
-    weights = resample_weights(len(system.zz), settings.bootstrap, rng)
-    inclusion = selection_frequency(system, weights, max_terms=settings.max_terms, min_gain=settings.min_gain)
-    terms = [i for i in range(len(library)) if inclusion[i] >= 0.5]
+    weights, inclusion, terms = selected_in_half(
+        system, settings.bootstrap, rng, max_terms=settings.max_terms, min_gain=settings.min_gain
+    )
     G, b, _, _ = system.total()
     while (weakest := weakest_term(samples := coefficient_samples(system, terms, weights), KEEP_LEVEL)) is not None:
         terms.pop(weakest)
@@ -542,17 +523,13 @@ def decide_round(
     matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
     undecided = different + matched
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
-    tolerated = _small_form_error(chosen, settings)
-    if undecided:
-        recommended = _next([chosen, *undecided], obs)
-    elif unexplained and not tolerated:
-        recommended = _next([chosen, *(c for c in ranking if c is not chosen and c.corrected is not None)][:3], obs)
-    else:
-        recommended = []
-    separated = recommended[0].channel if undecided and recommended else None
     unfitted = could_explain_as_well(chosen, screen, settings.equivalence * dispersion)
-    unfitted = unfitted if undecided or not (unexplained and not tolerated) else []
-    if undecided or unfitted:
+    decision = conclude(
+        left=bool(unexplained), tolerated=_small_form_error(chosen, settings), undecided=bool(undecided or unfitted)
+    )
+    recommended, unfitted = [], unfitted if decision is Decision.NOT_IDENTIFIABLE else []
+    if decision is Decision.NOT_IDENTIFIABLE:
+        recommended = _next([chosen, *undecided], obs) if undecided else []
         keys = ", ".join(c.hypothesis.key for c in [chosen, *undecided])
         what = f"not identifiable: {keys} " + (
             "explain the measured channels equally well" if undecided else "fits best"
@@ -563,24 +540,25 @@ def decide_round(
             listed = ", ".join(h.key for h in unfitted)
             what += f", and the screen could not exclude {listed}, not fitted"
         what += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
-    elif unexplained and not tolerated:
+    elif decision is Decision.UNEXPLAINED:
+        recommended = _next([chosen, *(c for c in ranking if c is not chosen and c.corrected is not None)][:3], obs)
         what = (
             f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {unexplained} disagreeing beyond "
             "noise, so what is missing may be an explanation that did not fit here or more than one effect"
         )
     else:
         what = chosen.hypothesis.describe(model)
-        if unexplained:
+        if decision is Decision.FORM_INCOMPLETE:
             left = ", ".join(f"{t.channel} at {t.chi2_per_dof:.3g}" for t in chosen.tests_after if t.flagged)
             what += (
                 f" (form incomplete: its closed form leaves {left} times the noise variance, "
                 f"{1 - chosen.explained:.1%} of the flagged channels' excess)"
             )
+    separated = recommended[0].channel if decision is Decision.NOT_IDENTIFIABLE and recommended else None
     effect = removal(chosen.explained, "the flagged channels' excess")
-    verdict = f"{what}; the correction {effect}"
     return SparseRound(
-        model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=equivalent, identifiable=not (undecided or unfitted), separated_by=separated, verdict=verdict, dispersion=dispersion, at_budget=budget,
-        measure_next=recommended, form_tolerated=tolerated, not_fitted=unfitted,
+        model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=equivalent, decision=decision, separated_by=separated, verdict=f"{what}; the correction {effect}", dispersion=dispersion, at_budget=budget,
+        measure_next=recommended, not_fitted=unfitted,
     )  # fmt: skip
 
 

@@ -37,6 +37,7 @@ from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import constant_inputs
 from ...core.naming import removal, same_physics
+from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, innovation_tests
 from ..measure_next import measure_next
@@ -239,8 +240,14 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     rivals = [candidates[id(f)] for f in ranking.rivals]
     effect = removal(chosen.explained, f"the channels' excess on {cells}")
     first = ranking.order[0]
-    if not (first.fit.at_noise or ranking.incomplete):
-        left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
+    unfitted = [
+        f.hypothesis
+        for f in screen.unfitted(settings.shooting_window)
+        if not same_physics(f.hypothesis.corrected(model, list(f.features), f.theta), chosen.corrected, model, x, u)
+    ]
+    decision = ranking.decision(unfitted=bool(unfitted))
+    left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
+    if decision is Decision.UNEXPLAINED:
         applied = chosen.explained >= settings.min_explained
         verdict = (
             f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {left} times the noise variance "
@@ -251,12 +258,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         return SparseRound.unexplained_round(
             model, tests, order, verdict, measure_next=recommended, chosen=chosen if applied else None
         )
-    unfitted = [
-        f.hypothesis
-        for f in screen.unfitted(settings.shooting_window)
-        if not same_physics(f.hypothesis.corrected(model, list(f.features), f.theta), chosen.corrected, model, x, u)
-    ]
-    if rivals or unfitted:
+    if decision is Decision.NOT_IDENTIFIABLE:
         recommended = next_measured([chosen, *rivals]) if rivals else []
         keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
         verdict = (
@@ -272,7 +274,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         verdict += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
         separated = recommended[0].channel if recommended else None
         return SparseRound(
-            model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, identifiable=False, separated_by=separated, verdict=f"{verdict}; the correction {effect}",
+            model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, decision=decision, separated_by=separated, verdict=f"{verdict}; the correction {effect}",
             measure_next=recommended, not_fitted=unfitted,
         )  # fmt: skip
     name = _hypothesis(model, ranking.names[0])
@@ -282,12 +284,11 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     others = [key for key in ranking.names[1:] if key != chosen.hypothesis.key]
     if others:
         what += f"; no measurement tells it from {', '.join(others)}, the same physics"
-    if ranking.incomplete:
-        left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
+    if decision is Decision.FORM_INCOMPLETE:
         what += f" (form incomplete: its closed form leaves {left} times the noise variance on {cells})"
     return SparseRound(
-        model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, identifiable=True, separated_by=None, verdict=f"{what}; the correction {effect}",
-        form_tolerated=ranking.incomplete, name=None if name == chosen.hypothesis else name,
+        model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, decision=decision, verdict=f"{what}; the correction {effect}",
+        name=None if name == chosen.hypothesis else name,
     )  # fmt: skip
 
 

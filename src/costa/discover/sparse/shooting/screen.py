@@ -23,7 +23,8 @@ import numpy as np
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from ...core.naming import balance_moved, causes_through, decide, naming_order, small_form_error
+from ...core.naming import balance_moved, causes_through, conclude, decide, naming_order, small_form_error
+from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..observations import Observations
 from ..observed import PRIOR_STD
@@ -221,27 +222,13 @@ class Ranking:
     names: list[str] = field(default_factory=list)
     incomplete: bool = False  # the first's closed form leaves a small error (FittedForm.small_form_error)
 
-    @property
-    def verdict(self) -> str:
-        """What the fits decide, in words."""
+    def decision(self, unfitted: bool = False) -> Decision:
+        """What the fits decide (:func:`...core.naming.conclude`): unexplained where none pays its terms;
+        ``unfitted``: a hypothesis the screen could not exclude, of other physics, was not fitted."""
         if not self.order:
-            return "nothing: no fit pays its terms"
-        first = self.order[0]
-        if not (first.fit.at_noise or self.incomplete):
-            flagged = list(first.fit.beyond_noise)
-            return f"unexplained: the best correction, {first.hypothesis.key}, leaves {flagged} beyond noise"
-        same = self.names
-        if self.rivals:
-            return f"undecided among {same + [f.hypothesis.key for f in self.rivals]}"
-        fitted = self.equivalent[0].hypothesis.key
-        others = [key for key in same[1:] if key != fitted]
-        left = {c: round(v, 2) for c, v in first.fit.beyond_noise.items()}
-        return (
-            f"named: {same[0]}"
-            + (f", fitted as {fitted}" if same[0] != fitted else "")
-            + (f" (the same physics: {others})" if others else "")
-            + (f"; form incomplete: it leaves {left} (noise variances)" if self.incomplete else "")
-        )
+            return Decision.UNEXPLAINED
+        left = not self.order[0].fit.at_noise
+        return conclude(left=left, tolerated=self.incomplete, undecided=bool(self.rivals) or unfitted)
 
 
 def ranked_fits(
