@@ -5,7 +5,10 @@ rule noisy_training_set:
     """The replicate's training set with measurement noise of {level} % of each state's std."""
     input:
         train=out("{base}data/train.parquet"),
-        code=SIMULATION_CODE + package_files("beyond.py", "discover/cases/shipped.py"),
+        code=SIMULATION_CODE
+        + package_files(
+            "beyond.py", "discover/cases/shipped.py", "discover/cases/shipped.yaml"
+        ),
     output:
         train=out("{base}noise/{level}/data/train.parquet"),
     log:

@@ -100,7 +100,7 @@ def package_files(*modules):
     files = []
     for module in modules:
         path = PACKAGE / module
-        sources = (p for p in path.rglob("*") if p.suffix in (".py", ".c"))
+        sources = (p for p in path.rglob("*") if p.suffix in (".py", ".c", ".yaml"))
         found = sorted(sources) if path.is_dir() else [path]
         files += [checkout_file(p.relative_to(workflow.basedir)) for p in found]
     return files
@@ -157,6 +157,7 @@ DISCOVERY_CODE = SIMULATION_CODE + package_files(
 # (so that a change of the discovery's own code does not simulate the data again)
 CASE_DATA_CODE = SIMULATION_CODE + package_files(
     "discover/cases/shipped.py",
+    "discover/cases/shipped.yaml",
     "discover/cases/unshipped.py",
     "discover/cases/tables.py",
     "discover/cases/drawn.py",

@@ -3,7 +3,8 @@
 Each case builds a *true* model from the full model (or, for the paper's case, is the
 full model itself), simulates trajectories with it, and adds measurement noise; the
 discovery workflow gets the noisy data and a *starting* model that lacks the effect,
-and is never told what is hidden.  ``expected_equations`` and ``accepted`` say what
+and is never told what is hidden.  The cases are a table, ``shipped.yaml`` beside this
+module; their true models are the functions here.  ``expected_equations`` and ``accepted`` say what
 a correct answer is; ``accepted`` lists the explanations a correct answer may name
 first: the same physics where the naming rule cannot choose (a missing flow into a
 balance and the same correction of a flow part that enters only that balance are
@@ -16,8 +17,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from importlib import resources
 
 import numpy as np
+import yaml
 
 from ...physics import PROPERTIES, BalanceTerm, CellModel, InputCorrection, PropertyCorrection, ablated_model
 
@@ -109,98 +112,30 @@ def _tapping_shortfall(full: CellModel) -> CellModel:
     return full.with_input(InputCorrection("u4", "-0.1", lambda v: -0.1), model_name="full+tapping at 90 %")
 
 
-CASES: dict[str, HiddenEffectCase] = {
-    c.name: c
-    for c in (
-        HiddenEffectCase(
-            name="paper_liquidus",
-            hidden="the liquidus temperature g1 depends on the bath composition (the PBM fixes it at 968 degC)",
-            kind="a part replaced by a constant",
-            starting="ablated",
-            noise=0.01,
-            expected_equations=("x1", "x4", "x6", "x7"),
-            accepted=("part:liquidus_temperature",),
-            make_true=_unchanged,
-        ),
-        HiddenEffectCase(
-            name="top_heat_loss",
-            hidden="a heat loss of 22 W/K (x6 - 35 degC) from the bath through the top",
-            kind="a missing flow in an energy balance",
-            starting="full",
-            noise=0.01,
-            expected_equations=("x6",),
-            accepted=("term:bath_energy", "part:electric_power", "part:bath_ledge_heat"),
-            make_true=_top_heat_loss,
-        ),
-        HiddenEffectCase(
-            name="alf3_evaporation",
-            hidden="AlF3 evaporates at 0.02 c3 exp((x6 - 970)/25) kg/s",
-            kind="a missing flow in a mass balance",
-            starting="full",
-            noise=0.005,
-            expected_equations=("x3",),
-            accepted=("term:alf3_mass",),
-            make_true=_alf3_evaporation,
-        ),
-        HiddenEffectCase(
-            name="wall_conductivity",
-            hidden="the wall conductivity rises 0.4 %/K with the wall temperature x8",
-            kind="a coefficient that depends on a state",
-            starting="full",
-            noise=0.01,
-            expected_equations=("x7", "x8"),
-            accepted=("property:wall_conductivity",),
-            make_true=_wall_conductivity,
-        ),
-        HiddenEffectCase(
-            name="alumina_dissolution",
-            hidden="a fraction 0.3 - 0.015 (x6 - g1) of the alumina feed settles as sludge",
-            kind="an efficiency that varies with operating conditions",
-            starting="full",
-            noise=0.01,
-            expected_equations=("x2",),
-            accepted=("term:alumina_mass",),
-            make_true=_alumina_dissolution,
-        ),
-        HiddenEffectCase(
-            name="conductivity_alf3",
-            hidden="the bath conductivity falls with the AlF3 fraction: g2 exp(-3.5 (c3 - 0.11))",
-            kind="a coefficient that depends on the composition",
-            starting="full",
-            noise=0.005,
-            expected_equations=("x6",),
-            accepted=("part:bath_conductivity",),  # U and P_el, computed from g2, are its consequences
-            make_true=_conductivity_alf3,
-        ),
-        HiddenEffectCase(
-            name="alumina_feeder",
-            hidden="the alumina feeder delivers 92 % of its command u1",
-            kind="an input that is not what reached the cell",
-            starting="full",
-            noise=0.01,
-            expected_equations=("x2",),
-            accepted=("input:u1",),
-            make_true=_alumina_feeder,
-        ),
-        HiddenEffectCase(
-            name="tapping_shortfall",
-            hidden="the tapping removes 90 % of the metal logged in u4",
-            kind="an input that is not what reached the cell",
-            starting="full",
-            noise=0.01,
-            expected_equations=("x5",),
-            accepted=("input:u4",),
-            make_true=_tapping_shortfall,
-        ),
-        HiddenEffectCase(
-            name="no_effect",
-            hidden="nothing: the data come from the starting model itself",
-            kind="no effect (a null case)",
-            starting="full",
-            noise=0.01,
-            expected_equations=(),
-            accepted=(),
-            make_true=_unchanged,
-        ),
-    )
-}
+#: the functions that build a case's true model from the full one, by the name shipped.yaml gives
+TRUE_MODELS: dict[str, Callable[[CellModel], CellModel]] = {
+    f.__name__.removeprefix("_"): f
+    for f in (_unchanged, _top_heat_loss, _alf3_evaporation, _wall_conductivity, _alumina_dissolution,
+              _conductivity_alf3, _alumina_feeder, _tapping_shortfall)
+}  # fmt: skip
+
+
+def _shipped() -> dict[str, HiddenEffectCase]:
+    """The cases of shipped.yaml, in its order."""
+    table = yaml.safe_load(resources.files(__package__).joinpath("shipped.yaml").read_text())
+    return {
+        name: HiddenEffectCase(
+            name=name,
+            hidden=row["hidden"],
+            kind=row["kind"],
+            starting=row["starting"],
+            noise=float(row["noise"]),
+            expected_equations=tuple(row["expected_equations"]),
+            accepted=tuple(row["accepted"]),
+            make_true=TRUE_MODELS[row["true_model"]],
+        )  # fmt: skip
+        for name, row in table.items()
+    }
+
+
+CASES: dict[str, HiddenEffectCase] = _shipped()

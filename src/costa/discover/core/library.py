@@ -48,22 +48,12 @@ _NEEDS = {"superheat": frozenset({"liquidus_temperature"})}
 #: the feed and tapping flows: a correction of a flow may depend on them, a material
 #: property (a liquidus temperature, a conductivity) may not
 FLOW_INPUTS = ("u1", "u3", "u4")
-#: name -> (nominal value, how to read it from the cell variables and quantities)
-_VARIABLES: dict[str, tuple[float, Callable]] = {
-    "c2": (0.03, lambda v, q: v.c2),
-    "c3": (0.11, lambda v, q: v.c3),
-    "x6": (970.0, lambda v, q: v.x6),
-    "x7": (820.0, lambda v, q: v.x7),
-    "x8": (580.0, lambda v, q: v.x8),
-    "x1": (3000.0, lambda v, q: v.x1),
-    "m": (16000.0, lambda v, q: v.m),
-    "u2": (140000.0, lambda v, q: v.u2),
-    "u5": (0.05, lambda v, q: v.u5),
-    "u1": (0.0, lambda v, q: v.u1),
-    "u3": (0.0, lambda v, q: v.u3),
-    "u4": (0.0, lambda v, q: v.u4),
-    "superheat": (0.0, lambda v, q: v.x6 - q["liquidus_temperature"]),
-}
+#: name -> its nominal value: terms are written in its deviation from it (a name of the cell
+#: variables, or the superheat x6 - g1, read from the quantities)
+_NOMINAL = {
+    "c2": 0.03, "c3": 0.11, "x6": 970.0, "x7": 820.0, "x8": 580.0, "x1": 3000.0, "m": 16000.0, "u2": 140000.0,
+    "u5": 0.05, "u1": 0.0, "u3": 0.0, "u4": 0.0, "superheat": 0.0,
+}  # fmt: skip
 #: squares, and products of the bath's state variables with each other and with the
 #: flow drivers (an efficiency that varies multiplies a flow by a function of conditions)
 _SQUARED = ("c2", "c3", "x6", "u2")
@@ -73,9 +63,12 @@ _CONDITIONS = ("c2", "c3", "x6", "superheat")
 
 
 def _centred(name: str) -> tuple[str, Callable]:
-    nominal, read = _VARIABLES[name]
+    """A variable's label and its deviation from its nominal value, read from the cell variables v and quantities q."""
+    nominal = _NOMINAL[name]
     label = name if nominal == 0 else f"({name} - {nominal:g})"
-    return label, lambda v, q, read=read, nominal=nominal: read(v, q) - nominal
+    if name == "superheat":
+        return label, lambda v, q: v.x6 - q["liquidus_temperature"] - nominal
+    return label, lambda v, q: getattr(v, name) - nominal
 
 
 #: a constant and the bath's composition and temperature, linear: the first-order closed form of a
@@ -94,8 +87,8 @@ def feature_library(relative: bool, rich: bool = False) -> list[Feature]:
     the part's own value.  ``rich`` adds every square and pairwise product of the main
     variables (and, relative, those times the part's own value): for a later round, when
     a simpler closed form left the same equations disagreeing."""
-    linear = {name: _centred(name) for name in _VARIABLES}
-    needs = {name: _NEEDS.get(name, frozenset()) for name in _VARIABLES}
+    linear = {name: _centred(name) for name in _NOMINAL}
+    needs = {name: _NEEDS.get(name, frozenset()) for name in _NOMINAL}
     features = [Feature("1", lambda v, q, own: v.xp.ones_like(v.x1))]
     features += [
         Feature(name=label, fn=lambda v, q, own, f=f: f(v, q), needs=needs[name]) for name, (label, f) in linear.items()

@@ -260,16 +260,9 @@ def shooting_fit(
 
     def placed(start, theta, looseness, placing=0):
         return Shooting.placed(
-            model,
-            hypothesis,
-            features=features,
-            obs=obs,
-            segment_s=segment_s,
-            iterations=placing,
-            starts=start,
-            theta=theta,
-            looseness=looseness,
-        )
+            model, hypothesis, features=features, obs=obs, segment_s=segment_s, iterations=placing, starts=start,
+            theta=theta, looseness=looseness,
+        )  # fmt: skip
 
     def run(fit, theta):
         return fit.result(fit.run(theta, iterations[1], hold_theta=False))
