@@ -231,3 +231,16 @@ def test_the_published_rates_are_a_test_run_of_every_sensor_set():
     assert (published.strong_right <= published.strong_effects).all() and (
         published.strong_effects <= published.effects
     ).all()
+
+
+def test_the_discovery_guides_first_table_is_the_published_rates_page():
+    """docs/discovery.md's table of how often a name is right is the page the workflow writes from the
+    published rates, row for row: a rerun that changes the rates changes the guide, or this fails."""
+    from costa.benchmark.score import rates_markdown
+
+    published = pd.read_csv(PUBLISHED)
+    page = rates_markdown(published, split=published["split"].iloc[0], size=published["size"].iloc[0])
+    rows = [line for line in page.splitlines() if line.startswith("| ") and not line.startswith("| sensors")]
+    guide = (REPOSITORY / "docs/discovery.md").read_text()
+    assert [row for row in rows if row not in guide] == []
+    assert guide.index(rows[0]) < guide.index("## How it works")
