@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from costa.discover.core.hypotheses import candidate_hypotheses
-from costa.discover.core.naming import decide
+from costa.discover.core.naming import decide, same_physics
 from costa.physics import operating_points
 
 
@@ -61,3 +61,22 @@ def test_a_flow_that_is_one_input_times_a_constant_is_named_as_that_inputs_gain(
     constant = fitted("term:metal_mass", {"1": -0.1})
     chosen, _, _ = decide([gain, constant], (), model, x, u)
     assert chosen is constant
+
+
+def test_closed_forms_of_one_balances_missing_heat_flow_are_not_rivals(model):
+    """A constant 20.4 kW less heat of freezing in the bath and 0.09 % less electric power both take
+    heat from the bath and nothing else, at every operating point: one explanation whatever the
+    forms (the shooting round on top_heat_loss's plant record fitted these two within 10 of BIC
+    gain). A heat flow from the bath to the wall moves a second balance: still a rival."""
+    x, u = operating_points(np.random.default_rng(0), 20)
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+    freezing = _constant(model, "part:bath_freezing_heat", 2.04e4)
+    power = hypotheses["part:electric_power"]
+    own = next(f for f in power.features() if f.name == "own")
+    proportional = SimpleNamespace(hypothesis=power, features=[own], corrected=power.corrected(model, [own], [-8.9e-4]))
+    to_wall = _constant(model, "transfer:bath_energy->wall_energy", 2.0e4)
+    assert not same_physics(freezing.corrected, proportional.corrected, model, x, u)  # the forms differ
+    chosen, others, rivals = decide([freezing, proportional], (), model, x, u)
+    assert {id(chosen), *map(id, others)} == {id(freezing), id(proportional)} and rivals == []
+    chosen, others, rivals = decide([freezing, to_wall], (), model, x, u)
+    assert rivals == [c for c in (freezing, to_wall) if c is not chosen]

@@ -35,11 +35,10 @@ from ...physics import (
     CellModel,
     InputCorrection,
     PropertyCorrection,
-    operating_points,
     true_model,
 )  # fmt: skip
 from ...variables import INPUTS, STATES
-from ..core.hypotheses import Hypothesis, candidate_hypotheses
+from ..core.hypotheses import candidate_hypotheses, generic_points, same_sensitivity
 from .shipped import HiddenEffectCase
 
 __all__ = ["DRAWN_NAME", "SPLITS", "DrawnEffect", "draw_effect", "drawn_case", "effect_case", "split_cases"]
@@ -223,8 +222,8 @@ def effect_case(effect: DrawnEffect) -> HiddenEffectCase:
     """A case with ``effect`` hidden: its effect on the full model, the equations it changes, the names
     that are right (named ``drawn<seed>``: its cells and noise come from the name)."""
     full = true_model()
-    x, u = _operating_points()
-    accepted = equivalent_names(effect, full, x, u) if effect.key else ()
+    x, u = generic_points()
+    accepted = equivalent_names(effect, full) if effect.key else ()
     return HiddenEffectCase(
         name=f"drawn{effect.seed}", hidden=effect.describe(), kind=f"drawn: {effect.kind} ({effect.family})", starting="full", noise=effect.noise,
         expected_equations=changed_states(effect.true_model(full), full, x, u), accepted=accepted, make_true=effect.true_model,
@@ -239,11 +238,6 @@ def split_cases(split: str, count: int) -> list[str]:
     return [f"drawn{seed}" for seed in seeds_[:count]]
 
 
-def _operating_points() -> tuple[np.ndarray, np.ndarray]:
-    """256 states and inputs over the operating range, from a fixed stream: where equivalence is judged."""
-    return operating_points(seeds.numpy_generator(0, 0, "benchmark/operating_points"), 256)
-
-
 def changed_states(true: CellModel, start: CellModel, x: np.ndarray, u: np.ndarray) -> tuple[str, ...]:
     """The states whose rate the effect changes at the operating points."""
     with np.errstate(all="ignore"):
@@ -252,28 +246,10 @@ def changed_states(true: CellModel, start: CellModel, x: np.ndarray, u: np.ndarr
     return tuple(s for s, d in zip(STATES, np.nanmax(np.abs(a - b), axis=0) > 1e-9 * scale, strict=True) if d)
 
 
-def equivalent_names(effect: DrawnEffect, full: CellModel, x: np.ndarray, u: np.ndarray) -> tuple[str, ...]:
-    """The effect's own hypothesis, then every other whose sensitivity (8,) is the same up to one constant
-    factor at every operating point: the data cannot tell them apart, whatever the closed form."""
+def equivalent_names(effect: DrawnEffect, full: CellModel) -> tuple[str, ...]:
+    """The effect's own hypothesis, then every other whose sensitivity is the same up to one constant
+    factor at every operating point (:func:`..core.hypotheses.same_sensitivity`): the data cannot tell
+    them apart, whatever the closed form."""
     hypotheses = candidate_hypotheses(full)
     own = next(h for h in hypotheses if h.key == effect.key)
-    reference = _sensitivity(own, full, x, u)
-    same = [own.key]
-    for h in hypotheses:
-        if h.key != own.key and _proportional(_sensitivity(h, full, x, u), reference):
-            same.append(h.key)
-    return tuple(same)
-
-
-def _sensitivity(h: Hypothesis, model: CellModel, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-    with np.errstate(all="ignore"):
-        return np.nan_to_num(h.sensitivity(model, x, u).ravel())
-
-
-def _proportional(a: np.ndarray, b: np.ndarray, tolerance: float = 1e-4) -> bool:
-    """Whether a = c b for one constant c != 0 (least squares, relative residual below ``tolerance``)."""
-    bb = b @ b
-    if bb == 0 or a @ a == 0:
-        return False
-    c = (a @ b) / bb
-    return c != 0 and np.linalg.norm(a - c * b) <= tolerance * np.linalg.norm(a)
+    return (own.key, *(h.key for h in hypotheses if h.key != own.key and same_sensitivity(h, own, full)))

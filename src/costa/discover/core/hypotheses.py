@@ -26,9 +26,11 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cache
 
 import numpy as np
 
+from ... import seeds
 from ...physics import (
     BALANCES,
     PART_ORDER,
@@ -38,11 +40,12 @@ from ...physics import (
     CellVariables,
     InputCorrection,
     PropertyCorrection,
+    operating_points,
 )  # fmt: skip
 from ...variables import INPUTS, MEANING
 from .library import Feature, evaluate, feature_library
 
-__all__ = ["Hypothesis", "candidate_hypotheses"]
+__all__ = ["Hypothesis", "candidate_hypotheses", "generic_points", "proportional", "same_sensitivity"]
 
 
 @dataclass(frozen=True)
@@ -236,3 +239,34 @@ def candidate_hypotheses(model: CellModel, constant: Sequence[str] = ()) -> list
                     )
                 )
     return hypotheses
+
+
+@cache
+def generic_points() -> tuple[np.ndarray, np.ndarray]:
+    """256 states (256, 8) and inputs (256, 5) over the cell's operating range, from a fixed stream
+    (named for the benchmark, which first used it): where two hypotheses are judged alike to any
+    measurement, not only to one record's (on a pot line's constant current more of them look alike)."""
+    return operating_points(seeds.numpy_generator(0, 0, "benchmark/operating_points"), 256)
+
+
+def proportional(a: np.ndarray, b: np.ndarray, tolerance: float = 1e-4) -> bool:
+    """Whether a = c b for one constant c != 0 (least squares; the residual within ``tolerance`` of |a|)."""
+    a, b = a.ravel(), b.ravel()
+    bb = b @ b
+    if bb == 0 or a @ a == 0:
+        return False
+    c = (a @ b) / bb
+    return bool(c != 0 and np.linalg.norm(a - c * b) <= tolerance * np.linalg.norm(a))
+
+
+def same_sensitivity(a: Hypothesis, b: Hypothesis, model: CellModel) -> bool:
+    """Whether a unit of ``a``'s delta changes every state rate as a constant multiple of ``b``'s does, at
+    :func:`generic_points`: then no measurement tells the two apart, whatever their closed forms (a heat
+    flow missing from the bath, the same change of the electric power, of the bath's heat of freezing).
+    Such hypotheses are one explanation, named in :func:`.naming.naming_order`."""
+    if a.key == b.key:
+        return True
+    x, u = generic_points()
+    with np.errstate(all="ignore"):
+        sa, sb = (np.nan_to_num(h.sensitivity(model, x, u)) for h in (a, b))
+    return proportional(sa, sb)

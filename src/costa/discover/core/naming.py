@@ -9,12 +9,12 @@ import numpy as np
 from ...observe import SENSED_PART, observe
 from ...physics import BALANCES, PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
-from .hypotheses import PREFERENCE, Hypothesis
+from .hypotheses import PREFERENCE, Hypothesis, same_sensitivity
 from .outcome import Decision
 from .settings import DiscoverySettings
 
 __all__ = [
-    "balance_moved", "causes_through", "conclude", "decide", "fit_outcome", "naming_order", "removal",
+    "alike", "balance_moved", "causes_through", "conclude", "decide", "fit_outcome", "naming_order", "removal",
     "same_physics", "small_form_error",
 ]  # fmt: skip
 
@@ -122,8 +122,8 @@ def decide(close: Sequence, named: Sequence[str], model: CellModel, x: np.ndarra
     ``features`` and ``corrected`` model) would be named, and whether the data name it: the rule
     every route follows.  Returns (chosen, others, rivals): the first in :func:`naming_order`
     (``named``: the keys earlier rounds named), the others in that order, and those of them whose
-    physics differs from the chosen one's (:func:`same_physics` at the states x (..., 8) and
-    inputs u (..., 5)).  While a rival stands, nothing is named (and a route fits every hypothesis
+    physics differs from the chosen one's (not :func:`alike` at the states x (..., 8) and inputs u
+    (..., 5)).  While a rival stands, nothing is named (and a route fits every hypothesis
     its screen cannot exclude before it decides): the chosen correction is the best fit, not the
     cause (a flow into the AlF3 balance and a transfer from the ledge to it fit alike where the
     ledge's side of the transfer is below its noise)."""
@@ -131,8 +131,17 @@ def decide(close: Sequence, named: Sequence[str], model: CellModel, x: np.ndarra
     with np.errstate(all="ignore"):
         reads = model.reads(x[:1], u[:1])
     chosen, *others = naming_order(close, named, reads, terms=lambda c: len(c.features))
-    same = [same_physics(c.corrected, chosen.corrected, model, x, u) for c in others]
-    return chosen, others, [c for c, alike in zip(others, same, strict=True) if not alike]
+    return chosen, others, [c for c in others if not alike(c, chosen, model, x, u)]
+
+
+def alike(a, b, model: CellModel, x: np.ndarray, u: np.ndarray) -> bool:
+    """Whether two fitted explanations (items with a ``hypothesis`` and a ``corrected`` model) are one
+    explanation to the data: their corrections change every state rate alike at the states x and inputs
+    u (:func:`same_physics`), or their hypotheses act alike at every operating point, whatever their
+    closed forms (:func:`.hypotheses.same_sensitivity`: a constant heat loss fitted as the bath's heat
+    of freezing and one in proportion to the electric power are both a heat flow missing from the bath;
+    the data tell the forms apart only by the margin the naming rule allows)."""
+    return same_physics(a.corrected, b.corrected, model, x, u) or same_sensitivity(a.hypothesis, b.hypothesis, model)
 
 
 #: what a sensor reads through the model's parts, not as a state: a correction that changes one of

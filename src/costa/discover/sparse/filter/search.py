@@ -48,9 +48,9 @@ import numpy as np
 from ....compiled import Smoothed
 from ....physics import CellModel
 from ...core.fitted_terms import KEEP_LEVEL, weakest_term
-from ...core.hypotheses import Hypothesis, candidate_hypotheses
+from ...core.hypotheses import Hypothesis, candidate_hypotheses, same_sensitivity
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ...core.naming import conclude, decide, fit_outcome, naming_order, removal, same_physics, small_form_error
+from ...core.naming import alike, conclude, decide, fit_outcome, naming_order, removal, small_form_error
 from ...core.outcome import Decision
 from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
@@ -503,7 +503,7 @@ def decide_round(
         and c not in equivalent
         and 0 < len(c.features) < len(chosen.features)
         and np.isfinite(c.bic_gain)
-        and not same_physics(c.corrected, chosen.corrected, model, x, obs.u[:, ::16])
+        and not alike(c, chosen, model, x, obs.u[:, ::16])
     ]
     samples = int(np.isfinite(obs.y).sum())
     margin = settings.equivalence * dispersion
@@ -523,7 +523,11 @@ def decide_round(
     matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
     undecided = different + matched
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
-    unfitted = could_explain_as_well(chosen, screen, settings.equivalence * dispersion)
+    unfitted = [
+        h
+        for h in could_explain_as_well(chosen, screen, settings.equivalence * dispersion)
+        if not same_sensitivity(h, chosen.hypothesis, model)
+    ]
     decision = conclude(
         left=bool(unexplained), tolerated=_small_form_error(chosen, settings), undecided=bool(undecided or unfitted)
     )

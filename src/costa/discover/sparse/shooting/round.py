@@ -30,13 +30,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 
 import numpy as np
 
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import constant_inputs
-from ...core.naming import removal, same_physics
+from ...core.naming import alike, removal
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, innovation_tests
@@ -243,7 +244,15 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     unfitted = [
         f.hypothesis
         for f in screen.unfitted(settings.shooting_window)
-        if not same_physics(f.hypothesis.corrected(model, list(f.features), f.theta), chosen.corrected, model, x, u)
+        if not alike(
+            SimpleNamespace(
+                hypothesis=f.hypothesis, corrected=f.hypothesis.corrected(model, list(f.features), f.theta)
+            ),
+            chosen,
+            model,
+            x,
+            u,
+        )  # fmt: skip
     ]
     decision = ranking.decision(unfitted=bool(unfitted))
     left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
