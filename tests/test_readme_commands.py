@@ -156,6 +156,13 @@ def check_worked_example(command, tmp_path):
     assert command in (REPOSITORY / "tests/test_own_data.py").read_text()
 
 
+def check_pot_line_example(command, tmp_path):
+    """Run end to end, after the example's make_export.py, by tests/test_historian.py (integration tier)."""
+    source = (REPOSITORY / "tests/test_historian.py").read_text()
+    target, config = command.removeprefix("snakemake --cores 2 ").split(" --configfile ")
+    assert f'target = "{target}"' in source and f"--configfile {config}" in source
+
+
 def check_template_dry_run(command, tmp_path):
     """Run by test_config_templates_run_as_written (a dry run with the template and a table of its shape)."""
     assert command in [t[2] for t in templates()]
@@ -372,6 +379,8 @@ FAST_CHECKS = {
         check_worked_example,
     "snakemake --cores 2 results/potline/discovery/pot12/findings.json --configfile potline.yaml":
         check_template_dry_run,
+    "snakemake --cores 2 results/pot-line/discovery/pot12/findings.json --configfile examples/pot-line/config.yaml":
+        check_pot_line_example,
     "python -m costa.cell_constants my.yaml": check_cell_constants,
     "snakemake --cores 2 results/historian/pot12/record.parquet --configfile pot12.yaml": check_historian_import,
     "snakemake --cores 2 --unlock": check_resume,
