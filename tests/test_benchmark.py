@@ -16,6 +16,7 @@ from costa.config import ConfigError, check_consistency
 from costa.discover.cases.drawn import (
     FAMILIES,
     NULL_SHARE,
+    OFFSET_SHARE,
     SPLITS,
     DrawnEffect,
     draw_effect,
@@ -54,6 +55,27 @@ def test_the_draws_cover_every_kind_and_family_with_the_stated_share_of_nulls():
     assert {e.family for e in drawn} == {family for family, _, _ in FAMILIES}
     sizes = np.abs([e.size for e in drawn])
     assert 0.001 <= sizes.min() and sizes.max() <= 0.1 and np.median(sizes) == pytest.approx(0.01, rel=0.2)
+    offsets = [e for e in drawn if e.offset]
+    assert {e.target for e in offsets} == {"u2", "u5"} and all(e.kind == "input" for e in offsets)
+    read_off = [e for e in drawn if e.kind == "input" and e.target in ("u2", "u5")]
+    assert abs(len(offsets) / len(read_off) - OFFSET_SHARE) < 0.15  # about 90 such effects in 2000
+
+
+def test_an_offset_adds_to_the_logged_input_and_a_gain_multiplies_it():
+    """u2 read 0.5 % x 140 kA too low (a constant offset): 700 A more reach the cell at every current,
+    where a gain of the same size adds 0.5 % of the current; the right name is the input's either way."""
+    x, u = operating_points(np.random.default_rng(6), 32)
+    full = true_model()
+    offset = DrawnEffect(seed=0, kind="input", target="u2", family="constant", variables=(), size=0.005,
+                         noise=0.01, offset=True)  # fmt: skip
+    gain = replace(offset, offset=False)
+    np.testing.assert_allclose(offset.true_model(full).delivered_inputs(x, u)[:, 1] - u[:, 1], 700.0, rtol=1e-9)
+    np.testing.assert_allclose(gain.true_model(full).delivered_inputs(x, u)[:, 1], 1.005 * u[:, 1], rtol=1e-12)
+    assert effect_case(offset).accepted == effect_case(gain).accepted == ("input:u2",)
+    assert "+ 0.005 x 140000 A" in offset.describe() and effect_case(offset).kind == "drawn: input offset (constant)"
+    model = offset.true_model(full)  # the compiled step traces the offset's division by the input
+    compiled = CompiledModel(model, 10.0, derivatives=False).step(x, u)
+    np.testing.assert_allclose(compiled, rk4_step(model.rhs, x, u, 10.0), rtol=1e-12)
 
 
 def test_every_family_stays_within_its_bound_and_compiles_to_numpys_step():

@@ -9,7 +9,9 @@ their inputs and the noise draws then come from the case's name (:mod:`.tables`)
 
 A correction of size ``a`` changes a part, a property or an input by the relative amount
 ``a f(z)``, and adds the flow ``a F_b f(z)`` to a balance (``F_b`` its typical flow,
-:data:`TYPICAL_FLOW`), where ``z = (variable - centre) / spread`` is held in [-2, 2] and each
+:data:`TYPICAL_FLOW`); half the effects on the line current and the anode-cathode distance are an
+offset instead of a gain, ``a U_i f(z)`` added to the logged input (``U_i`` its typical value,
+:data:`TYPICAL_INPUT`: a shunt read off zero, a beam's scale set wrong), where ``z = (variable - centre) / spread`` is held in [-2, 2] and each
 family is scaled to stay within [-2, 2] there: ``|a f| <= 0.2`` of the thing it changes.
 
 Which names are right is computed, not typed: the hypothesis whose correction the effect is,
@@ -37,7 +39,7 @@ from ...physics import (
     PropertyCorrection,
     true_model,
 )  # fmt: skip
-from ...variables import INPUTS, STATES
+from ...variables import INPUTS, STATES, UNIT
 from ..core.hypotheses import candidate_hypotheses, generic_points, same_sensitivity
 from .shipped import HiddenEffectCase
 
@@ -66,6 +68,10 @@ TYPICAL_FLOW = {
 }  # fmt: skip
 #: a part in degC changes by a F f(z) with this F (a relative change of a liquidus would be tens of kelvin)
 TYPICAL_TEMPERATURE = 10.0
+#: the inputs that may be read with an offset, and their typical value (A, m): an offset is a U_i f(z)
+TYPICAL_INPUT = {"u2": 140000.0, "u5": 0.05}
+#: the share of the effects on those inputs that are an offset rather than a gain
+OFFSET_SHARE = 0.5
 #: the families: (name, number of variables, inside the term library)
 FAMILIES = (
     ("constant", 0, True), ("linear", 1, True), ("product", 2, True),
@@ -84,6 +90,7 @@ class DrawnEffect:
     variables: tuple[str, ...]
     size: float  # signed a
     noise: float
+    offset: bool = False  # an input read with an offset (added to it), not a gain
 
     @property
     def key(self) -> str | None:
@@ -133,11 +140,15 @@ class DrawnEffect:
                 where = f"a flow moves from {self.target.replace('->', ' to ')}: "
             case "property":
                 where = f"the {PROPERTIES[self.target].meaning} changes by a relative "
+            case _ if self.offset:
+                where = f"the {self.target} reaching the cell is the logged one + "
             case _:
                 where = f"the {self.target} reaching the cell is the logged one x (1 + "
         if self._absolute_part:
             factor += f" x {TYPICAL_TEMPERATURE:g} degC"
-        close = ")" if self.kind == "input" else ""
+        if self.offset:
+            factor += f" x {TYPICAL_INPUT[self.target]:g} {UNIT[self.target]}"
+        close = ")" if self.kind == "input" and not self.offset else ""
         spans = ", ".join(f"z({n}) = ({n} - {c:g})/{s:g}" for n, (c, s) in VARIABLES.items() if n in self.variables)
         return f"{where}{factor} {self.shape_formula()}{close}" + (f", {spans}, held in [-2, 2]" if spans else "")
 
@@ -168,6 +179,10 @@ class DrawnEffect:
             case "property":
                 correction = PropertyCorrection(PROPERTIES[self.target], self.describe(), lambda v: a * self.shape(v))
                 return full.with_property(correction, model_name=name)
+            case "input" if self.offset:
+                shift, target = a * TYPICAL_INPUT[self.target], self.target
+                gain = lambda v: shift * self.shape(v) / getattr(v, target)  # noqa: E731  (u + b = u (1 + b/u))
+                return full.with_input(InputCorrection(target, self.describe(), gain), model_name=name)
             case "input":
                 return full.with_input(InputCorrection(self.target, self.describe(), lambda v: a * self.shape(v)),
                                        model_name=name)  # fmt: skip
@@ -205,8 +220,10 @@ def draw_effect(seed: int) -> DrawnEffect:
     names = list(VARIABLES)
     variables = tuple(names[i] for i in rng.choice(len(names), size=count, replace=False))
     size = float(np.exp(rng.uniform(*np.log(SIZE_RANGE)))) * (1.0 if rng.random() < 0.5 else -1.0)
+    # drawn last, so that every other draw of a case is as it was before offsets were drawn
+    offset = kind == "input" and target in TYPICAL_INPUT and bool(rng.random() < OFFSET_SHARE)
     return DrawnEffect(seed=seed, kind=kind, target=target, family=family, variables=variables, size=size,
-                       noise=noise)  # fmt: skip
+                       noise=noise, offset=offset)  # fmt: skip
 
 
 @cache
@@ -224,8 +241,9 @@ def effect_case(effect: DrawnEffect) -> HiddenEffectCase:
     full = true_model()
     x, u = generic_points()
     accepted = equivalent_names(effect, full) if effect.key else ()
+    kind = f"{effect.kind} offset" if effect.offset else effect.kind
     return HiddenEffectCase(
-        name=f"drawn{effect.seed}", hidden=effect.describe(), kind=f"drawn: {effect.kind} ({effect.family})", starting="full", noise=effect.noise,
+        name=f"drawn{effect.seed}", hidden=effect.describe(), kind=f"drawn: {kind} ({effect.family})", starting="full", noise=effect.noise,
         expected_equations=changed_states(effect.true_model(full), full, x, u), accepted=accepted, make_true=effect.true_model,
     )  # fmt: skip
 
