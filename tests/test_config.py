@@ -33,8 +33,18 @@ def test_smoke_config_is_a_small_variant_of_the_default():
         ({"physics": {"equations": "latest"}}, r"at 'physics.equations': 'latest' is not one of"),
         ({"physics": {"overrides": {"k99": 1.0}}}, r"at 'physics.overrides'"),
         ({"simulation": {"initial_conditions": {"x1": [1, 2, 3]}}}, r"at 'simulation.initial_conditions.x1'"),
+        (
+            {"discovery": {"sensor_sets": {"regimes": {"vary": {"operation": ["daily"], "hours": [24, 48],
+                                                                "every_s": [3600]}}}}},
+            r"at 'discovery.sensor_sets.regimes.vary.operation.0': 'daily' is not one of",
+        ),
+        (
+            {"discovery": {"sensor_sets": {"regimes": {"vary": {"operation": ["pot_line"], "hours": [240, 24],
+                                                                "every_s": [3600]}}}}},
+            r"discovery.sensor_sets.regimes.vary.hours \[240, 24\]: the low end is above the high",
+        ),
     ],
-)
+)  # fmt: skip
 def test_bad_config_names_the_key(override, message):
     with pytest.raises(ConfigError, match=message):
         load_config(overrides=override)

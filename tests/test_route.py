@@ -44,7 +44,7 @@ DAILY = {"U_pot": 10.0, "x6": 86400.0, "c3": 86400.0, "x5": 86400.0}
 def test_the_shipped_sensor_sets_take_their_documented_routes(default_config):
     """full: the full-state route; partial (the composition every step) and pot_line (daily hand
     samples): the filter; plant (bath temperature hourly, hand samples every 8 h): multiple shooting
-    on 2 cells, without the set saying so."""
+    on 2 cells, without the set saying so; regimes as declared (a shipped case's record): as pot_line."""
     sets = default_config["discovery"]["sensor_sets"]
     routes = {name: choose_route(_declared(s), dt_s=DT) for name, s in sets.items()}
     assert {name: (r.name, r.shooting_cells) for name, r in routes.items()} == {
@@ -52,6 +52,7 @@ def test_the_shipped_sensor_sets_take_their_documented_routes(default_config):
         "partial": ("filter", 0),
         "plant": ("shooting", SHOOTING_CELLS),
         "pot_line": ("filter", 0),
+        "regimes": ("filter", 0),
     }
 
 

@@ -147,3 +147,49 @@ def test_a_sensor_sets_findings_describe_the_cells_it_simulates(default_config):
     assert simulated_data(default_config, "top_heat_loss", "partial").endswith(
         "(20 held out) with 1.0% measurement noise"
     )
+
+
+def test_a_varied_sets_drawn_case_draws_its_record_and_a_shipped_case_gets_the_set(default_config):
+    """Under ``regimes`` each drawn case's record is a function of its seed: its cells run one of the
+    operations, for whole hours within the range, and its hand-sampled channels all at one of the intervals
+    (the logged voltage as declared); a shipped case, and every set that does not vary, are as declared."""
+    from costa.discover.cases.tables import record_settings, simulated_data
+
+    vary = default_config["discovery"]["sensor_sets"]["regimes"]["vary"]
+    drawn = [record_settings(default_config, "regimes", f"drawn{seed}") for seed in range(100_000, 100_040)]
+    assert record_settings(default_config, "regimes", "drawn100003")[0] == drawn[3][0]  # a function of the seed
+    for sensor_set, settings in drawn:
+        hand = {s.every_s for s in sensor_set.sensors if s.channel != "U_pot"}
+        assert len(hand) == 1 and hand <= set(vary["every_s"]) and sensor_set.sensors[0].every_s == 10
+        assert vary["hours"][0] <= sensor_set.hours <= vary["hours"][1] and sensor_set.hours == round(sensor_set.hours)
+        assert settings.operation == sensor_set.operation and settings.steps == sensor_set.hours * 360
+    assert {s.operation for s, _ in drawn} == set(vary["operation"])
+    assert len({next(iter({x.every_s for x in s.sensors[1:]})) for s, _ in drawn}) == len(vary["every_s"])
+    shipped, _ = record_settings(default_config, "regimes", "top_heat_loss")
+    pot_line, _ = record_settings(default_config, "pot_line", "drawn100003")
+    assert (shipped.hours, shipped.operation, shipped.sensors) == (pot_line.hours, pot_line.operation, pot_line.sensors)
+    assert "its record drawn: run by the paper's controllers, U_pot every 10 s, x6 every 3600 s" in simulated_data(
+        default_config, "drawn100003", "regimes"
+    )
+
+
+def test_a_drawn_record_is_sampled_and_decided_as_drawn(default_config):
+    """The table a varied set's drawn case makes samples each channel at its drawn interval over its drawn
+    length, and the route its run takes from the table is the one the workflow plans from the drawn
+    intervals (hourly hand samples: multiple shooting; every step: the filter)."""
+    import copy
+
+    from costa.discover.cases.tables import case_tables, record_settings
+    from costa.discover.route import choose_route, record_route
+
+    config = copy.deepcopy(default_config)
+    regimes = config["discovery"]["sensor_sets"]["regimes"]
+    regimes.update(trajectories=1, held_out_trajectories=1)
+    regimes["vary"].update(hours=[20, 20])
+    for case in ("drawn100003", "drawn100001"):  # hourly samples, paper's controllers; every step, a pot line
+        sensor_set, _ = record_settings(config, "regimes", case)
+        train, held_out = case_tables(config, case, "regimes")
+        assert len(train) == 20 * 360 and train["x6"].notna().sum() == 20 * 3600 // sensor_set.sensors[1].every_s
+        planned = choose_route({s.channel: float(s.every_s) for s in sensor_set.sensors}, dt_s=10.0)
+        assert record_route([train, held_out], 10.0) == planned
+        assert planned.name == {"drawn100003": "shooting", "drawn100001": "filter"}[case]

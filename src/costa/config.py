@@ -89,6 +89,10 @@ def check_consistency(config: Mapping[str, Any]) -> None:
             f"discovery.sensors {unknown_sets} are not in discovery.sensor_sets {sorted(config['discovery']['sensor_sets'])}"
         )
     _check_benchmark(config["benchmark"], config["discovery"]["sensor_sets"])
+    for name, spec in config["discovery"]["sensor_sets"].items():
+        low, high = (spec.get("vary") or {}).get("hours", (0, 0))
+        if low > high:
+            raise ConfigError(f"discovery.sensor_sets.{name}.vary.hours [{low}, {high}]: the low end is above the high")
     user = config["discovery"]["user_data"]
     if user and user["name"] in config["discovery"]["cases"]:
         raise ConfigError(

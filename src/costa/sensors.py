@@ -10,6 +10,10 @@ in the channel's unit).  :func:`measure` turns a simulated truth into the tidy t
 plant would log: inputs at every step (they are logged commands), each measured
 channel at its own samples and NaN in between, unmeasured channels absent.
 
+A set may *vary* (:class:`RecordVariation`): each drawn case of the discovery benchmark then
+draws its record from its seed (how its cells are run, how long, how often the hand-sampled
+channels are sampled), so that one set spans a pot line's regimes (:meth:`SensorSet.drawn`).
+
 A channel sampled less often than every step starts at a random phase per
 trajectory (drawn from the given stream): hand samples are not taken at the same
 minute in every cell.  A channel sampled at taps is read once a tap, at its first
@@ -21,7 +25,7 @@ delivered does not change during the tap.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -35,6 +39,8 @@ __all__ = [
     "AT_TAPS",
     "AVAILABLE",
     "CHANNELS",
+    "LOGGED_S",
+    "RecordVariation",
     "declared_noise",
     "Sensor",
     "SensorSet",
@@ -46,6 +52,9 @@ __all__ = [
 
 #: ``every_s`` of a channel read once at each tap (the crane scale's weight of the metal tapped).
 AT_TAPS = "tap"
+#: a channel sampled at least this often [s] is logged; a rarer one is hand-sampled (a varied record
+#: draws the hand-sampled channels' interval)
+LOGGED_S = 60.0
 
 
 @dataclass(frozen=True)
@@ -96,10 +105,22 @@ AVAILABLE: tuple[Sensor, ...] = (
 
 
 @dataclass(frozen=True)
+class RecordVariation:
+    """How a varied set's record is drawn: the cells run one of ``operations``; trajectories of a whole
+    number of hours, log-uniform in ``hours`` (low, high); the hand-sampled channels (those declared
+    rarer than :data:`LOGGED_S`) all every one of ``every_s`` seconds (the logged ones as declared)."""
+
+    operations: tuple[str, ...]
+    hours: tuple[float, float]
+    every_s: tuple[float, ...]
+
+
+@dataclass(frozen=True)
 class SensorSet:
     """The channels a cell's instruments measure; ``hours``: the length of its trajectories, ``trajectories``
     and ``held_out_trajectories``: how many (None: the defaults); ``operation``: how the measured cells
-    are run (:attr:`costa.simulate.SimulationSettings.operation`)."""
+    are run (:attr:`costa.simulate.SimulationSettings.operation`); ``vary``: how a drawn case's record
+    varies (None: as declared)."""
 
     name: str
     sensors: tuple[Sensor, ...]
@@ -107,6 +128,7 @@ class SensorSet:
     trajectories: int | None = None
     held_out_trajectories: int | None = None
     operation: str = "excitation"
+    vary: RecordVariation | None = None
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -115,6 +137,26 @@ class SensorSet:
     def steps(self, dt: float, default: int) -> int:
         """Samples per trajectory at a step of ``dt`` [s]."""
         return default if self.hours is None else int(round(self.hours * 3600 / dt))
+
+    def drawn(self, rng: np.random.Generator) -> SensorSet:
+        """The record of one case of a varied set (:class:`RecordVariation`), drawn from ``rng``; itself
+        where the set does not vary."""
+        if self.vary is None:
+            return self
+        v = self.vary
+        operation = v.operations[rng.integers(len(v.operations))]
+        hours = float(np.round(np.exp(rng.uniform(*np.log(v.hours)))))
+        every = v.every_s[rng.integers(len(v.every_s))]
+        sensors = tuple(
+            Sensor(s.channel, every, s.noise) if s.every_s != AT_TAPS and s.every_s > LOGGED_S else s
+            for s in self.sensors
+        )
+        return replace(self, sensors=sensors, hours=hours, operation=operation, vary=None)
+
+    def describe(self) -> str:
+        """How its cells are run and what they measure, in words."""
+        how = "run as a pot line runs them" if self.operation == "pot_line" else "run by the paper's controllers"
+        return f"{how}, " + ", ".join(f"{s.channel} {s.interval}" for s in self.sensors)
 
 
 def measure(
@@ -189,15 +231,24 @@ def declared_noise(sets: Mapping[str, Mapping], name: str) -> dict[str, float]:
 
 def sensor_sets_from_config(sets: Mapping[str, Mapping]) -> dict[str, SensorSet]:
     """``discovery.sensor_sets`` of the config: name -> {operation, hours, trajectories, held_out_trajectories,
-    channels: {channel: {every_s, noise}}}."""
+    vary, channels: {channel: {every_s, noise}}}."""
     return {
         name: SensorSet(
-            name,
-            tuple(Sensor(channel, s["every_s"], s.get("noise")) for channel, s in spec["channels"].items()),
-            spec.get("hours"),
-            spec.get("trajectories"),
-            spec.get("held_out_trajectories"),
-            spec.get("operation", "excitation"),
+            name=name,
+            sensors=tuple(Sensor(channel, s["every_s"], s.get("noise")) for channel, s in spec["channels"].items()),
+            hours=spec.get("hours"),
+            trajectories=spec.get("trajectories"),
+            held_out_trajectories=spec.get("held_out_trajectories"),
+            operation=spec.get("operation", "excitation"),
+            vary=_variation(spec["vary"]) if spec.get("vary") else None,
         )
         for name, spec in sets.items()
     }
+
+
+def _variation(spec: Mapping) -> RecordVariation:
+    """``vary`` of a sensor set: {operation: [...], hours: [low, high], every_s: [...]}."""
+    return RecordVariation(
+        operations=tuple(spec["operation"]), hours=(float(spec["hours"][0]), float(spec["hours"][1])),
+        every_s=tuple(float(e) for e in spec["every_s"]),
+    )  # fmt: skip

@@ -21,7 +21,8 @@ from costa.discover.route import choose_route  # noqa: E402
 # The same CPU kernels for every job, whatever the shell says (config `kernels`):
 # the numbers then do not depend on the CPU (docs/reproducibility.md).
 from costa.kernels import kernel_environment  # noqa: E402
-from costa.sensors import Sensor, declared_noise as sensor_noise  # noqa: E402
+from costa.sensors import declared_noise as sensor_noise  # noqa: E402
+from costa.discover.cases.tables import record_settings  # noqa: E402
 
 os.environ.update(kernel_environment(config["kernels"]))
 
@@ -280,12 +281,13 @@ def sensor_findings(case, sensors):
 
 
 def sensor_meta(wildcards):
-    """What findings.json records about a case measured by a sensor set."""
-    sensor_set = config["discovery"]["sensor_sets"][wildcards.sensors]
+    """What findings.json records about a case measured by a sensor set (a drawn case's own record
+    under a set that varies)."""
+    sensor_set, _ = record_settings(config, wildcards.sensors, wildcards.case)
     described = ", ".join(
-        f"{channel} {Sensor(channel, spec['every_s']).interval}"
-        + (f" (noise {spec['noise']:g})" if "noise" in spec else "")
-        for channel, spec in sensor_set["channels"].items()
+        f"{s.channel} {s.interval}"
+        + (f" (noise {s.noise:g})" if s.noise is not None else "")
+        for s in sensor_set.sensors
     )
     meta = simulated_meta(wildcards.case, wildcards.sensors)
     return meta | {
@@ -372,9 +374,9 @@ def split_search(wildcards):
     """A sparse sensor set's first-round records: its screen and discovery.search_jobs shares of the
     fits (:mod:`costa.discover.sparse.split`); none on the full-state route (costa.discover.route).
     """
-    channels = config["discovery"]["sensor_sets"][wildcards.sensors]["channels"]
+    sensor_set, _ = record_settings(config, wildcards.sensors, wildcards.case)
     declared = {
-        c: float(s["every_s"]) for c, s in channels.items() if s["every_s"] != "tap"
+        s.channel: float(s.every_s) for s in sensor_set.sensors if s.every_s != "tap"
     }
     if choose_route(declared, dt_s=config["simulation"]["dt_s"]).name == "full_state":
         return {}

@@ -43,7 +43,7 @@ class Replay:
 def signal(config: Mapping, case: str | HiddenEffectCase, sensors: str) -> dict[str, float]:
     """The signal of a case's record to learn from under a sensor set, and the samples it sums over."""
     case = find_case(case) if isinstance(case, str) else case
-    sensor_set, settings = record_settings(config, sensors)
+    sensor_set, settings = record_settings(config, sensors, case.name)
     true, start = case.models(model_from_config(config["physics"])[0])
     x, u = simulated_cells(config, case, sensors, "train")
     with np.errstate(all="ignore"):

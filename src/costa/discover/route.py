@@ -20,12 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ..sensors import LOGGED_S
 from ..variables import STATES
 
 __all__ = ["LOGGED_S", "SHIFT_S", "SHOOTING_CELLS", "Route", "choose_route", "record_route"]
 
 SHIFT_S = 8 * 3600.0  #: a shift [s]: hand samples at least this often are fitted by multiple shooting
-LOGGED_S = 60.0  #: a channel sampled at least this often [s] is logged, not hand-sampled
 SHOOTING_CELLS = 2  #: cells the shooting round fits where the record does not say (the plant cases: 2-3 min)
 COMPOSITION = ("c2", "c3")
 

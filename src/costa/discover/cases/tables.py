@@ -14,6 +14,7 @@ from ...physics import model_from_config
 from ...sensors import SensorSet, measure, sensor_sets_from_config
 from ...simulate import SimulationSettings, simulate_set
 from .shipped import HiddenEffectCase
+from .drawn import DRAWN_NAME
 from .unshipped import find_case
 
 __all__ = ["case_noise", "case_table", "case_tables", "record_settings", "simulated_cells", "simulated_data"]
@@ -26,8 +27,9 @@ def case_tables(
     and measured by the sensor set ``sensors`` of ``discovery.sensor_sets``.
 
     The cells are run as the sensor set's ``operation`` says (the paper's excitation, or a pot line's
-    controllers).  A sensor that leaves its noise open gets the case's level: that fraction of its channel's
-    std over the data set (the full set is then every state with the case's noise).
+    controllers), or, for a drawn case under a set that varies, as its record is drawn
+    (:func:`record_settings`).  A sensor that leaves its noise open gets the case's level: that fraction of
+    its channel's std over the data set (the full set is then every state with the case's noise).
     """
     case = find_case(case) if isinstance(case, str) else case
     return case_table(config, case, sensors, "train"), case_table(config, case, sensors, "held_out")
@@ -35,7 +37,7 @@ def case_tables(
 
 def case_table(config: Mapping, case: HiddenEffectCase, sensors: str, split: str) -> pd.DataFrame:
     """One ``split`` ("train" or "held_out") of :func:`case_tables`."""
-    sensor_set, settings = record_settings(config, sensors)
+    sensor_set, settings = record_settings(config, sensors, case.name)
     true, _ = case.models(model_from_config(config["physics"])[0])
     x, u = simulated_cells(config, case, sensors, split)
     default = case_noise(true, x, u, sensor_set, case.noise)
@@ -45,9 +47,13 @@ def case_table(config: Mapping, case: HiddenEffectCase, sensors: str, split: str
     return measure(true, x, u=u, dt=settings.dt, sensors=sensor_set, rng=rng, default_noise=default)
 
 
-def record_settings(config: Mapping, sensors: str) -> tuple[SensorSet, SimulationSettings]:
-    """A sensor set of ``discovery.sensor_sets`` and the simulation it measures (its length and operation)."""
+def record_settings(config: Mapping, sensors: str, case: str = "") -> tuple[SensorSet, SimulationSettings]:
+    """A sensor set of ``discovery.sensor_sets`` and the simulation it measures (its length and operation);
+    for a drawn ``case`` (``drawn<seed>``) under a set that varies, the record its seed draws
+    (:meth:`costa.sensors.SensorSet.drawn`, from its own stream: the effect's draws are untouched)."""
     sensor_set = sensor_sets_from_config(config["discovery"]["sensor_sets"])[sensors]
+    if sensor_set.vary is not None and (drawn := DRAWN_NAME.fullmatch(case)):
+        sensor_set = sensor_set.drawn(seeds.numpy_generator(int(drawn.group(1)), 0, f"benchmark/record/{sensors}"))
     settings = SimulationSettings.from_config(config["simulation"])
     return sensor_set, replace(
         settings, steps=sensor_set.steps(settings.dt, settings.steps), operation=sensor_set.operation
@@ -56,7 +62,7 @@ def record_settings(config: Mapping, sensors: str) -> tuple[SensorSet, Simulatio
 
 def simulated_cells(config: Mapping, case: HiddenEffectCase, sensors: str, split: str) -> tuple[np.ndarray, np.ndarray]:
     """The true states (n, K, 8) and inputs (n, K, 5) of a case's cells to learn from (``train``) or held out."""
-    sensor_set, settings = record_settings(config, sensors)
+    sensor_set, settings = record_settings(config, sensors, case.name)
     true, _ = case.models(model_from_config(config["physics"])[0])
     count = _counts(config["discovery"], sensor_set)[split]
     stream = f"discovery/{case.name}/{split}"
@@ -77,13 +83,13 @@ def simulated_data(config: Mapping, case: str, sensors: str = "full") -> str:
     :func:`case_tables` simulates them for the sensor set), their length where the set gives it, and
     the case's noise level where a channel of the set takes it (one that declares no noise of its own)."""
     discovery = config["discovery"]
-    sensor_set = sensor_sets_from_config(discovery["sensor_sets"])[sensors]
+    sensor_set, _ = record_settings(config, sensors, case)
     counts = _counts(discovery, sensor_set)
-    given = discovery["sensor_sets"][sensors]
-    length = f" of {given['hours']:g} h" if given.get("hours") else ""
-    declared = all("noise" in spec for spec in given["channels"].values())
+    length = f" of {sensor_set.hours:g} h" if sensor_set.hours else ""
+    declared = all(s.noise is not None for s in sensor_set.sensors)
     noise = "" if declared else f" with {find_case(case).noise:.1%} measurement noise"
-    return f"{counts['train']} simulated trajectories{length} ({counts['held_out']} held out){noise}"
+    drawn = f", its record drawn: {sensor_set.describe()}" if discovery["sensor_sets"][sensors].get("vary") else ""
+    return f"{counts['train']} simulated trajectories{length} ({counts['held_out']} held out){noise}{drawn}"
 
 
 def _counts(discovery: Mapping, sensor_set) -> dict[str, int]:
