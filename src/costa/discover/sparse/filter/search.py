@@ -18,9 +18,10 @@ One round on the current model:
 4. corrections within ``equivalence`` BIC of the best explain the measured channels
    equally well (the window widened by the best correction's remaining misfit,
    :func:`_dispersion`: where even the best leaves the innovations far from white, BIC
-   differences are not evidence).  If they are the same physics (their effects on every
-   state rate are proportional: a flow into the bath's energy balance and the same change
-   of the electric power), the cause is named as on full data.  If not, the measurements
+   differences are not evidence).  If they are one explanation (:func:`...core.naming.alike`:
+   their effects on every state rate proportional, or their hypotheses acting alike: a flow
+   into the bath's energy balance and a change of the electric power), the cause is named as
+   on full data.  If not, the measurements
    cannot tell them apart: the round says so, names none, lists them and says which
    unmeasured channel would separate them; the best one still corrects the model for
    forecasting, and the rounds stop there; so too where a hypothesis that was not fitted
@@ -33,7 +34,8 @@ One round on the current model:
    thousands of samples make a small form error significant) stays named where it removes
    ``form_removed`` of the flagged excess and leaves no channel more than ``form_excess`` noise
    variances beyond noise, and the verdict says "form incomplete" with what
-   is left; the rounds stop there.
+   is left; the rounds stop there.  One that leaves more is unexplained, before 4 and 5 are
+   asked (:func:`...core.naming.conclude`, the order of every route).
 """
 
 from __future__ import annotations
