@@ -51,6 +51,7 @@ include: "workflow/rules/replicates.smk"
 include: "workflow/rules/beyond.smk"
 include: "workflow/rules/peers.smk"
 include: "workflow/rules/benchmark.smk"
+include: "workflow/rules/line.smk"
 include: "workflow/rules/report.smk"
 
 

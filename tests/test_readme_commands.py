@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from conftest import REPOSITORY, SMOKE_COMMAND, SMOKE_CONFIG, on_smoke, repository_copy, run_command
+from conftest import REPOSITORY, SMOKE_COMMAND, SMOKE_CONFIG, on_smoke, repository_copy, run_command, snakemake
 
 #: The documents whose commands and config blocks are checked as written.
 DOCUMENTS = ("README.md", "docs/own-data.md", "docs/discovery.md", "docs/results.md")
@@ -161,6 +161,17 @@ def check_pot_line_example(command, tmp_path):
     source = (REPOSITORY / "tests/test_historian.py").read_text()
     target, config = command.removeprefix("snakemake --cores 2 ").split(" --configfile ")
     assert f'target = "{target}"' in source and f"--configfile {config}" in source
+
+
+def check_line_dry_run(command, tmp_path):
+    """The simulated line's DAG up to its checkpoint (its pots simulated and screened, then grouped); the
+    whole line runs small in tests/test_line.py (integration tier)."""
+    target, config = command.removeprefix("snakemake --cores 2 ").split(" --configfile ")
+    (tmp_path / config).parent.mkdir(parents=True)
+    shutil.copy(REPOSITORY / config, tmp_path / config)
+    result = snakemake(tmp_path, target, "--configfile", config, "--dry-run", check=False)
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert re.search(r"line_screen\s+24", result.stdout) and "line_groups" in result.stdout, result.stdout[-2000:]
 
 
 def check_template_dry_run(command, tmp_path):
@@ -383,6 +394,7 @@ FAST_CHECKS = {
         check_pot_line_example,
     "python -m costa.cell_constants my.yaml": check_cell_constants,
     "snakemake --cores 2 results/historian/pot12/record.parquet --configfile pot12.yaml": check_historian_import,
+    "snakemake --cores 2 results/line/line24/line.md --configfile config/line.yaml": check_line_dry_run,
     "snakemake --cores 2 --unlock": check_resume,
     "snakemake --cores 2 --rerun-incomplete": check_resume,
     "snakemake --workflow-profile workflow/profiles/slurm": check_cluster,

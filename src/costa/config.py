@@ -100,6 +100,7 @@ def check_consistency(config: Mapping[str, Any]) -> None:
         )
     _check_cell(config["physics"])
     _check_gap_windows(user)
+    _check_line(config["line"], config["discovery"]["sensor_sets"])
     noise = config["beyond"]["noise"]
     unknown = sorted(set(noise["model_types"]) - set(config["training"]["model_types"]))
     if unknown:
@@ -112,6 +113,30 @@ def check_consistency(config: Mapping[str, Any]) -> None:
     copied = evaluation["copied_samples"]
     if max(copied.values()) >= steps:
         raise ConfigError(f"evaluation.copied_samples {copied} must be below simulation.steps = {steps}")
+
+
+def _check_line(line: Mapping[str, Any] | None, sensor_sets: Mapping[str, Any]) -> None:
+    """A simulated line's sensor set exists, its groups are shipped cases, each pot in one group at most."""
+    simulated = (line or {}).get("simulated")
+    if not simulated:
+        return
+    from .discover.cases.shipped import CASES
+
+    if simulated["sensors"] not in sensor_sets:
+        raise ConfigError(
+            f"line.simulated.sensors {simulated['sensors']!r} is not in discovery.sensor_sets {sorted(sensor_sets)}"
+        )
+    seen: dict[int, str] = {}
+    for i, group in enumerate(simulated["groups"]):
+        key = f"line.simulated.groups[{i}]"
+        if group["case"] not in CASES:
+            raise ConfigError(f"{key}.case {group['case']!r} is not a shipped case; known: {sorted(CASES)}")
+        for pot in group["pots"]:
+            if pot >= simulated["pots"]:
+                raise ConfigError(f"{key}.pots: pot {pot} is beyond the line's {simulated['pots']} pots (0-based)")
+            if pot in seen:
+                raise ConfigError(f"{key}.pots: pot {pot} is in {seen[pot]} too; a pot hides one effect")
+            seen[pot] = key
 
 
 def _check_cell(physics: Mapping[str, Any]) -> None:

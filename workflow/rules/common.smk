@@ -1,4 +1,5 @@
 # Paths, wildcards and the library files each stage depends on.
+import json
 import os
 import re
 from pathlib import Path
@@ -23,6 +24,8 @@ from costa.discover.route import choose_route  # noqa: E402
 from costa.kernels import kernel_environment  # noqa: E402
 from costa.sensors import declared_noise as sensor_noise  # noqa: E402
 from costa.discover.cases.tables import record_settings  # noqa: E402
+from costa.line.groups import group_meta  # noqa: E402
+from costa.line.pots import Line  # noqa: E402
 
 os.environ.update(kernel_environment(config["kernels"]))
 
@@ -386,6 +389,59 @@ def split_search(wildcards):
         "screen": f"{prefix}/screen.pkl",
         "fits": [f"{prefix}/fit_{j}_of_{jobs}.pkl" for j in range(jobs)],
     }
+
+
+LINE = Line.from_config(config["line"]) if config["line"] else None
+LINE_NAME = LINE.name if LINE else "^$"
+
+
+def pot_record_path(line, pot):
+    """A pot's record: simulated (rule line_pot), or your file."""
+    return (
+        out(f"line/{line}/pots/{pot}/record.parquet")
+        if LINE.simulated
+        else LINE.records[pot]
+    )
+
+
+def line_record(wildcards):
+    return pot_record_path(wildcards.line, wildcards.pot)
+
+
+def _line_group(wildcards):
+    """The group of the line's checkpoint (its groups.json) named by the wildcards."""
+    groups = checkpoints.line_groups.get(line=wildcards.line).output.groups
+    return next(
+        g for g in json.loads(Path(groups).read_text()) if g["group"] == wildcards.group
+    )
+
+
+def line_group_records(wildcards):
+    """The records of a group's pots."""
+    return [
+        pot_record_path(wildcards.line, pot) for pot in _line_group(wildcards)["pots"]
+    ]
+
+
+def line_group_meta(wildcards):
+    """What a group's findings record of its data (and, simulated, of what it hides)."""
+    return group_meta(LINE, _line_group(wildcards))
+
+
+def line_group_name(wildcards):
+    """A group's data set name (its random streams; on a simulated line it ends in the sensor set,
+    whose gap restarts and shooting cells apply)."""
+    name = f"line/{wildcards.line}/{wildcards.group}"
+    return f"{name}/{LINE.sensors}" if LINE.simulated else name
+
+
+def line_group_findings(wildcards):
+    """Every group's findings, once the line's checkpoint has grouped the pots."""
+    groups = checkpoints.line_groups.get(line=wildcards.line).output.groups
+    return [
+        out(f"line/{wildcards.line}/groups/{g['group']}/findings.json")
+        for g in json.loads(Path(groups).read_text())
+    ]
 
 
 def historian_files(wildcards):

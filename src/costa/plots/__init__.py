@@ -4,6 +4,7 @@ from .benchmark import plot_recall_by_signal
 from .beyond import plot_noise_study
 from .datasets import plot_datasets
 from .discovery import plot_discovery
+from .line import plot_line
 from .replicates import plot_replicate_blowups
 from .results import plot_blowups, plot_error_violins, plot_rolling_forecast
 from .style import save
@@ -14,6 +15,7 @@ __all__ = [
     "plot_datasets",
     "plot_discovery",
     "plot_error_violins",
+    "plot_line",
     "plot_noise_study",
     "plot_recall_by_signal",
     "plot_replicate_blowups",

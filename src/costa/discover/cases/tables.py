@@ -13,8 +13,8 @@ from ...observe import observe
 from ...physics import model_from_config
 from ...sensors import SensorSet, measure, sensor_sets_from_config
 from ...simulate import SimulationSettings, simulate_set
-from .shipped import HiddenEffectCase
 from .drawn import DRAWN_NAME
+from .shipped import HiddenEffectCase
 from .unshipped import find_case
 
 __all__ = ["case_noise", "case_table", "case_tables", "record_settings", "simulated_cells", "simulated_data"]

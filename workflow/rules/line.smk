@@ -1,0 +1,145 @@
+rule line_pot:
+    """One simulated pot's record: one cell run and measured as the line's sensor set says,
+    with the hidden effect of its group, from the pot's own streams."""
+    input:
+        code=CASE_DATA_CODE + package_files("line"),
+    output:
+        record=out("line/{line}/pots/{pot}/record.parquet"),
+    log:
+        out("line/{line}/pots/{pot}/logs/record.log"),
+    wildcard_constraints:
+        line=LINE_NAME,
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=lambda wildcards: config,
+    script:
+        "../scripts/line_pot.py"
+
+
+rule line_screen:
+    """One pot screened with the starting model: its filter's channel tests."""
+    input:
+        record=line_record,
+        code=DISCOVERY_CODE + package_files("line"),
+    output:
+        screen=out("line/{line}/pots/{pot}/screen.json"),
+    log:
+        out("line/{line}/pots/{pot}/logs/screen.log"),
+    benchmark:
+        out("line/{line}/pots/{pot}/benchmarks/screen.tsv")
+    wildcard_constraints:
+        line=LINE_NAME,
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=lambda wildcards: config,
+    script:
+        "../scripts/line_screen.py"
+
+
+checkpoint line_groups:
+    """The line's table (pots x channels), its figure, and the pots that disagree alike grouped."""
+    input:
+        screens=lambda wildcards: [
+            out(f"line/{wildcards.line}/pots/{pot}/screen.json") for pot in LINE.pots
+        ],
+        code=package_files("line", "plots"),
+    output:
+        table=out("line/{line}/line.csv"),
+        groups=out("line/{line}/groups.json"),
+        figure=report(
+            out("line/{line}/line.png"),
+            category="Pot line",
+            caption="../report/captions/line.rst",
+        ),
+    log:
+        out("line/{line}/logs/groups.log"),
+    wildcard_constraints:
+        line=LINE_NAME,
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=lambda wildcards: config,
+    script:
+        "../scripts/line_groups.py"
+
+
+rule line_group_data:
+    """A group's pots pooled into one data set, split into pots to learn from and held out."""
+    input:
+        groups=out("line/{line}/groups.json"),
+        records=line_group_records,
+        code=package_files("line", "discover/pipeline.py"),
+    output:
+        record=out("line/{line}/groups/{group}/record.parquet"),
+        train=out("line/{line}/groups/{group}/data/train.parquet"),
+        held_out=out("line/{line}/groups/{group}/data/held_out.parquet"),
+    log:
+        out("line/{line}/groups/{group}/logs/data.log"),
+    wildcard_constraints:
+        line=LINE_NAME,
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=lambda wildcards: config,
+    script:
+        "../scripts/line_group_data.py"
+
+
+rule line_group_discovery:
+    """Discovery on one group's pots together: one name, one closed form for all of them."""
+    input:
+        train=out("line/{line}/groups/{group}/data/train.parquet"),
+        held_out=out("line/{line}/groups/{group}/data/held_out.parquet"),
+        code=DISCOVERY_CODE,
+    output:
+        findings=out("line/{line}/groups/{group}/findings.json"),
+        markdown=out("line/{line}/groups/{group}/findings.md"),
+        gap=out("line/{line}/groups/{group}/gap.parquet"),
+        per_state=out("line/{line}/groups/{group}/per_channel_errors.parquet"),
+    log:
+        out("line/{line}/groups/{group}/logs/discover.log"),
+    benchmark:
+        out("line/{line}/groups/{group}/benchmarks/discover.tsv")
+    wildcard_constraints:
+        line=LINE_NAME,
+    conda:
+        ENV
+    threads: 2
+    resources:
+        mem_mb=6000,
+    params:
+        config=discovery_config,
+        meta=line_group_meta,
+        starting_model=lambda wildcards: LINE.starting_model,
+        name=line_group_name,
+        declared_noise=lambda wildcards: LINE.declared_noise(config),
+    script:
+        "../scripts/discover.py"
+
+
+rule line_report:
+    """The line's page: its pots by how they disagree, each group's outcome."""
+    input:
+        table=out("line/{line}/line.csv"),
+        groups=out("line/{line}/groups.json"),
+        findings=line_group_findings,
+        code=package_files("line"),
+    output:
+        page=out("line/{line}/line.md"),
+    log:
+        out("line/{line}/logs/report.log"),
+    wildcard_constraints:
+        line=LINE_NAME,
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=lambda wildcards: config,
+    script:
+        "../scripts/line_report.py"
