@@ -138,10 +138,10 @@ def file_hashes(folder: Path) -> dict[str, str]:
 
 
 #: What two runs of the same config must agree on byte for byte: data, models, metrics and findings.
-RESULT_FOLDERS = ("data", "models", "eval", "discovery")
+RESULT_FOLDERS = ("data", "models", "eval", "discovery", "line")
 RESULT_SUFFIXES = (".parquet", ".csv", ".json", ".pt")
-#: The one recorded value that differs between two runs: how long discovery took.
-TIMING_FIELDS = ("discovery_seconds",)
+#: The recorded values that differ between two runs: how long discovery and a pot's screen took.
+TIMING_FIELDS = ("discovery_seconds", "seconds")
 
 
 def result_hashes(workdir: Path, results: str = "results/smoke") -> dict[str, str]:
@@ -190,4 +190,31 @@ def smoke_run(tmp_path_factory) -> Path:
     if kept is not None:
         shutil.copytree(workdir, kept / "run", symlinks=True, dirs_exist_ok=True)
         (kept / "seconds").write_text(str(TIMINGS["local smoke run"]))
+    return workdir
+
+
+#: A small simulated line: four pots of 60 h on a pot line's sensors, two tapped short (results under results/tinyline/).
+TINY_LINE_CONFIG = """\
+output: {results: results/tinyline, report: results/tinyline/report}
+discovery:
+  sensor_sets:
+    short_line: {operation: pot_line, hours: 60, gap_restart_hours: 24,
+      channels: {U_pot: {every_s: 10, noise: 0.005}, x6: {every_s: 28800, noise: 1.5},
+                 c3: {every_s: 28800, noise: 0.002}, x5: {every_s: 28800, noise: 15}}}
+line: {name: tiny, simulated: {pots: 4, sensors: short_line, groups: [{case: tapping_shortfall, pots: [1, 2]}]}}
+"""
+#: The tiny line's page, the target of every file of the line
+TINY_LINE_TARGET = "results/tinyline/line/tiny/line.md"
+
+
+@pytest.fixture(scope="session")
+def tiny_line_run(tmp_path_factory) -> Path:
+    """A copy of the repository in which the tiny line (:data:`TINY_LINE_CONFIG`, ``tinyline.yaml``) has
+    run on 2 cores: screened, grouped, each group searched and checked, the page written."""
+    workdir = repository_copy(tmp_path_factory.mktemp("tinyline"))
+    (workdir / "tinyline.yaml").write_text(TINY_LINE_CONFIG)
+    started = time.perf_counter()
+    result = snakemake(workdir, TINY_LINE_TARGET, "--configfile", "tinyline.yaml", check=False)
+    TIMINGS["local tiny line"] = time.perf_counter() - started
+    assert result.returncode == 0, result.stderr[-4000:]
     return workdir

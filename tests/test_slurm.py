@@ -1,4 +1,4 @@
-"""The smoke workflow through a real SLURM (one node on localhost) gives the local run's bytes.
+"""The smoke workflow and a small pot line through a real SLURM (one node on localhost) give the local runs' bytes.
 
 Runs where Debian's ``slurm-wlm`` and ``munge`` are installed and the tests run as root
 (CI installs them), else skips with the reason. The README's cluster command runs as
@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import SMOKE_COMMAND, TIMINGS, repository_copy, result_hashes, run_command
+from conftest import SMOKE_COMMAND, TIMINGS, TINY_LINE_TARGET, repository_copy, result_hashes, run_command
 from local_slurm import local_slurm, missing_prerequisites
 
 pytestmark = [
@@ -53,3 +53,23 @@ def test_smoke_run_on_slurm_matches_the_local_run(smoke_run, tmp_path):
         f"\nsmoke workflow wall time: local {TIMINGS.get('local smoke run', float('nan')):.0f} s "
         f"({SMOKE_COMMAND}), SLURM {TIMINGS['slurm smoke run']:.0f} s ({CLUSTER_COMMAND})"
     )
+
+
+def test_a_small_line_on_slurm_matches_the_local_run(tiny_line_run, tmp_path):
+    """The line's jobs (a pot's record and screen, the checkpoint that groups the pots, a group's data,
+    discovery and check, the page) each an sbatch job: the same screens, groups, findings and checks."""
+    workdir = repository_copy(tmp_path / "repository")
+    (workdir / "tinyline.yaml").write_text((tiny_line_run / "tinyline.yaml").read_text())
+    with tempfile.TemporaryDirectory(prefix="costa-slurm-") as short, local_slurm(Path(short)) as env:
+        started = time.perf_counter()
+        command = CLUSTER_COMMAND.replace(
+            " --configfile config/smoke.yaml", f" {TINY_LINE_TARGET} --configfile tinyline.yaml"
+        )
+        result = run_command(workdir, f"{command} {TEST_CLUSTER_FLAGS}", env=env, timeout=1200)
+        TIMINGS["slurm tiny line"] = time.perf_counter() - started
+    assert result.returncode == 0, f"{result.stdout[-3000:]}\n{result.stderr[-8000:]}"
+    assert "slurm" in result.stderr.lower()
+    local, cluster = (result_hashes(w, "results/tinyline") for w in (tiny_line_run, workdir))
+    assert len(cluster) > 10 and cluster == local
+    assert (workdir / TINY_LINE_TARGET).read_text() == (tiny_line_run / TINY_LINE_TARGET).read_text()
+    print(f"\ntiny line wall time: local {TIMINGS['local tiny line']:.0f} s, SLURM {TIMINGS['slurm tiny line']:.0f} s")

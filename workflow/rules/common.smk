@@ -408,12 +408,25 @@ def line_record(wildcards):
     return pot_record_path(wildcards.line, wildcards.pot)
 
 
-def _line_group(wildcards):
-    """The group of the line's checkpoint (its groups.json) named by the wildcards."""
+def _line_groups(wildcards):
+    """The groups of the line's checkpoint (its groups.json)."""
     groups = checkpoints.line_groups.get(line=wildcards.line).output.groups
-    return next(
-        g for g in json.loads(Path(groups).read_text()) if g["group"] == wildcards.group
-    )
+    return json.loads(Path(groups).read_text())
+
+
+def _line_group(wildcards):
+    """The group of the line's checkpoint named by the wildcards."""
+    return next(g for g in _line_groups(wildcards) if g["group"] == wildcards.group)
+
+
+def line_flagged_pots(wildcards):
+    """The pots of every group: those that disagree with the starting model, in the groups' order."""
+    return [pot for g in _line_groups(wildcards) for pot in g["pots"]]
+
+
+def line_flagged_records(wildcards):
+    """The records of the pots that disagree with the starting model."""
+    return [pot_record_path(wildcards.line, pot) for pot in line_flagged_pots(wildcards)]
 
 
 def line_group_records(wildcards):
@@ -435,13 +448,16 @@ def line_group_name(wildcards):
     return f"{name}/{LINE.sensors}" if LINE.simulated else name
 
 
-def line_group_findings(wildcards):
-    """Every group's findings, once the line's checkpoint has grouped the pots."""
-    groups = checkpoints.line_groups.get(line=wildcards.line).output.groups
+def line_group_findings(wildcards, name="findings.json"):
+    """Every group's findings (or another of its files), once the line's checkpoint has grouped the pots."""
     return [
-        out(f"line/{wildcards.line}/groups/{g['group']}/findings.json")
-        for g in json.loads(Path(groups).read_text())
+        out(f"line/{wildcards.line}/groups/{g['group']}/{name}") for g in _line_groups(wildcards)
     ]
+
+
+def line_group_checks(wildcards):
+    """Every group's correction checked on its pots (rule line_group_check)."""
+    return line_group_findings(wildcards, "pots.csv")
 
 
 def historian_files(wildcards):

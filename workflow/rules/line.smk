@@ -2,11 +2,13 @@ rule line_pot:
     """One simulated pot's record: one cell run and measured as the line's sensor set says,
     with the hidden effect of its group, from the pot's own streams."""
     input:
-        code=CASE_DATA_CODE + package_files("line"),
+        code=CASE_DATA_CODE + package_files("line/pots.py"),
     output:
         record=out("line/{line}/pots/{pot}/record.parquet"),
     log:
         out("line/{line}/pots/{pot}/logs/record.log"),
+    benchmark:
+        out("line/{line}/pots/{pot}/benchmarks/record.tsv")
     wildcard_constraints:
         line=LINE_NAME,
     conda:
@@ -22,7 +24,7 @@ rule line_screen:
     """One pot screened with the starting model: its filter's channel tests."""
     input:
         record=line_record,
-        code=DISCOVERY_CODE + package_files("line"),
+        code=DISCOVERY_CODE + package_files("line/screen.py", "line/pots.py"),
     output:
         screen=out("line/{line}/pots/{pot}/screen.json"),
     log:
@@ -46,7 +48,7 @@ checkpoint line_groups:
         screens=lambda wildcards: [
             out(f"line/{wildcards.line}/pots/{pot}/screen.json") for pot in LINE.pots
         ],
-        code=package_files("line", "plots"),
+        code=package_files("line/groups.py", "line/pots.py", "plots"),
     output:
         table=out("line/{line}/line.csv"),
         groups=out("line/{line}/groups.json"),
@@ -73,7 +75,7 @@ rule line_group_data:
     input:
         groups=out("line/{line}/groups.json"),
         records=line_group_records,
-        code=package_files("line", "discover/pipeline.py"),
+        code=package_files("line/groups.py", "discover/pipeline.py"),
     output:
         record=out("line/{line}/groups/{group}/record.parquet"),
         train=out("line/{line}/groups/{group}/data/train.parquet"),
@@ -123,12 +125,39 @@ rule line_group_discovery:
         "../scripts/discover.py"
 
 
+rule line_group_check:
+    """The group's one correction checked on every pot that disagrees, alone: which of its own it
+    leaves disagreeing, which of the others it explains."""
+    input:
+        findings=out("line/{line}/groups/{group}/findings.json"),
+        records=line_flagged_records,
+        code=DISCOVERY_CODE + package_files("line/check.py", "line/pots.py"),
+    output:
+        pots=out("line/{line}/groups/{group}/pots.csv"),
+    log:
+        out("line/{line}/groups/{group}/logs/check.log"),
+    benchmark:
+        out("line/{line}/groups/{group}/benchmarks/check.tsv")
+    wildcard_constraints:
+        line=LINE_NAME,
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=lambda wildcards: config,
+        pots=line_flagged_pots,
+        members=lambda wildcards: _line_group(wildcards)["pots"],
+    script:
+        "../scripts/line_group_check.py"
+
+
 rule line_report:
     """The line's page: its pots by how they disagree, each group's outcome."""
     input:
         table=out("line/{line}/line.csv"),
         groups=out("line/{line}/groups.json"),
         findings=line_group_findings,
+        checks=line_group_checks,
         code=package_files("line"),
     output:
         page=out("line/{line}/line.md"),

@@ -8,8 +8,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..physics import CellModel
 from ..variables import MEANING, STATES, UNIT
 from .core.fitted_terms import KEEP_LEVEL
+from .core.hypotheses import candidate_hypotheses
 from .core.naming import fit_outcome, removal
 from .core.outcome import Outcome, Round
 from .rates import how_often_right
@@ -17,7 +19,22 @@ from .rates import how_often_right
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)
 
-__all__ = ["findings", "findings_markdown"]
+__all__ = ["corrected_model", "findings", "findings_markdown"]
+
+
+def corrected_model(found: Mapping[str, Any], start: CellModel) -> CellModel:
+    """The model a findings.json's rounds end with: ``start`` with each round's applied closed form
+    put in (hypothesis, terms, coefficients), named or not identifiable."""
+    model = start
+    for r in found["rounds"]:
+        applied = r["correction"]
+        if not applied:
+            continue
+        hypothesis = next(h for h in candidate_hypotheses(model) if h.key == applied["hypothesis"])
+        library = {f.name: f for f in hypothesis.features(rich=True) + hypothesis.features(rich=False)}
+        features = [library[c["term"]] for c in applied["coefficients"]]
+        model = hypothesis.corrected(model, features, [c["value"] for c in applied["coefficients"]])
+    return model
 
 
 def _candidate(candidate, model) -> dict[str, Any]:

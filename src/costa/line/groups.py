@@ -1,10 +1,12 @@
 """The line's table, the pots that disagree alike grouped, and a group's pots pooled into one data set.
 
-A group is the pots with the same signature (:func:`.screen.signature`): the same channels flagged,
-each with the same sign of its innovations' bias.  Pots that deviate the same way are likely to
-miss the same physics, and together they hold more evidence than one: a daily sample a pot is
-little, twenty pots' are a lot.  A group's pots become the trajectories of one data set
-(:func:`pooled_record`), on which discovery runs as on several cells: one name, one closed form.
+A group is pots that disagree and that one hypothesis explains as well as any (:func:`group_pots`,
+from the first round's screen on each pot, :func:`.screen.screen_pot`): pots that deviate the same
+way are likely to miss the same physics, and together they hold more evidence than one: a daily
+sample a pot is little, twenty pots' are a lot.  (The channels' signs do not group them: under a
+pot line's controllers one feeder fault biased the bath temperature up in one pot and down in
+another.)  A group's pots become the trajectories of one data set (:func:`pooled_record`), on which
+discovery runs as on several cells: one name, one closed form.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from typing import Any
 
 import pandas as pd
 
-__all__ = ["group_meta", "group_pots", "line_page", "line_table", "pooled_record"]
+__all__ = ["group_meta", "group_pots", "line_table", "pooled_record"]
 
 
 def line_table(screens: Mapping[str, Mapping[str, Any]], effects: Mapping[str, str] | None = None) -> pd.DataFrame:
@@ -30,17 +32,37 @@ def line_table(screens: Mapping[str, Mapping[str, Any]], effects: Mapping[str, s
     return pd.DataFrame(rows)
 
 
-def group_pots(screens: Mapping[str, Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """The pots that disagree alike, one group a signature, the largest first (then by their first pot),
-    named A, B, ...: [{group, signature, pots}].  Pots that agree with the model belong to none."""
-    by_signature: dict[str, list[str]] = {}
-    for pot, screen in screens.items():
-        if screen["signature"]:
-            by_signature.setdefault(screen["signature"], []).append(pot)
-    ordered = sorted(by_signature.items(), key=lambda item: (-len(item[1]), item[1][0]))
+def group_pots(screens: Mapping[str, Mapping[str, Any]], equivalence: float) -> list[dict[str, Any]]:
+    """The pots that disagree alike, the largest group first (then by its first pot), named A, B, ...:
+    [{group, hypothesis, pots, signatures}].  A hypothesis explains a pot when its screened gain is
+    within ``equivalence`` of BIC of the pot's best (:attr:`...DiscoverySettings.equivalence`: the
+    pot's data cannot tell them apart); the hypothesis that explains the most pots (then the largest
+    summed gain) takes them as one group, and so on with the pots left.  Pots that agree with the
+    model belong to none; a pot that disagrees but that no hypothesis explains is a group of its own
+    (hypothesis None)."""
+    left = {pot: _explaining(screen["best"], equivalence) for pot, screen in screens.items() if screen["flagged"]}
+    found: list[tuple[str | None, list[str]]] = []
+    while any(left.values()):
+        support: dict[str, list[float]] = {}
+        for explaining in left.values():
+            for hypothesis, gain in explaining.items():
+                support.setdefault(hypothesis, []).append(gain)
+        best = max(sorted(support), key=lambda h: (len(support[h]), sum(support[h])))
+        found.append((best, [pot for pot, explaining in left.items() if best in explaining]))
+        left = {pot: explaining for pot, explaining in left.items() if best not in explaining}
+    found += [(None, [pot]) for pot in left]
+    ordered = sorted(found, key=lambda item: (-len(item[1]), item[1][0]))
     return [
-        {"group": _label(i), "signature": sig, "pots": pots} for i, (sig, pots) in enumerate(ordered)
+        {"group": _label(i), "hypothesis": hypothesis, "pots": pots,
+         "signatures": {pot: screens[pot]["signature"] for pot in pots}}
+        for i, (hypothesis, pots) in enumerate(ordered)
     ]  # fmt: skip
+
+
+def _explaining(best: Sequence[Mapping[str, Any]], equivalence: float) -> dict[str, float]:
+    """hypothesis -> screened gain, of the hypotheses within ``equivalence`` of BIC (twice the
+    log-likelihood) of the best of ``best`` (the pot's screen, best first)."""
+    return {b["hypothesis"]: b["gain"] for b in best if 2 * (best[0]["gain"] - b["gain"]) <= equivalence}
 
 
 def _label(index: int) -> str:
@@ -68,7 +90,8 @@ def group_meta(line, group: Mapping[str, Any]) -> dict[str, Any]:
     from ..discover.cases.shipped import CASES
 
     pots = group["pots"]
-    meta: dict[str, Any] = {"data": f"pots {', '.join(pots)} of the line {line.name} ({group['signature']})"}
+    explained = f"explained by {group['hypothesis']}" if group["hypothesis"] else "explained by none"
+    meta: dict[str, Any] = {"data": f"pots {', '.join(pots)} of the line {line.name} ({explained} one by one)"}
     if not line.simulated:
         return meta
     effects = sorted({line.effects[pot] for pot in pots})
@@ -78,53 +101,3 @@ def group_meta(line, group: Mapping[str, Any]) -> dict[str, Any]:
         case = CASES[effects[0]]
         meta |= {"expected_equations": list(case.expected_equations), "accepted": list(case.accepted)}
     return meta
-
-
-def line_page(line, table: pd.DataFrame, groups: Sequence[Mapping[str, Any]], findings: Mapping[str, Mapping]) -> str:
-    """The line's page: its pots by how they disagree, each group's outcome, and on a simulated line how
-    the groups match what is hidden (``findings``: group -> its findings.json)."""
-    pots = table.groupby("pot", sort=False).first()
-    group_of = {pot: g["group"] for g in groups for pot in g["pots"]}
-    flagged = sum(bool(s) for s in pots["signature"])
-    lines = [
-        f"# The line {line.name}", "",
-        f"{len(pots)} pots screened with the starting model ({line.starting_model}); {flagged} disagree beyond noise, "
-        f"in {len(groups)} group{'s' * (len(groups) != 1)} of the same channels and signs.", "",
-        "| pot | group | disagrees (channel, sign of the bias) | largest chi2/dof" + (" | hidden |" if line.simulated else " |"),
-        "|---|---|---|---|" + ("---|" if line.simulated else ""),
-    ]  # fmt: skip
-    largest = table.groupby("pot", sort=False)["chi2_per_dof"].max()
-    for pot, row in pots.iterrows():
-        cells = [pot, group_of.get(pot, "—"), row["signature"] or "nothing", f"{largest[pot]:.3g}"]
-        lines.append("| " + " | ".join(cells + ([row["hidden"]] if line.simulated else [])) + " |")
-    lines += ["", "| group | pots | outcome | named | closed form |", "|---|---|---|---|---|"]
-    for g in groups:
-        f = findings.get(g["group"], {})
-        correction = next((r.get("correction") for r in f.get("rounds", []) if r.get("correction")), None)
-        lines.append(
-            f"| {g['group']} | {', '.join(g['pots'])} | {f.get('outcome', '—')} | {', '.join(f.get('named', [])) or '—'} "
-            f"| {correction['closed_form'] if correction else '—'} |"
-        )
-    if line.simulated:
-        lines += ["", *_scored(line, pots, groups, findings)]
-    return "\n".join(lines) + "\n"
-
-
-def _scored(
-    line, pots: pd.DataFrame, groups: Sequence[Mapping[str, Any]], findings: Mapping[str, Mapping]
-) -> list[str]:
-    """How a simulated line's groups match what its pots hide."""
-    from ..discover.summary import judged
-
-    quiet = [pot for pot in pots.index if line.effects[pot] == "no_effect"]
-    false = [pot for pot in quiet if pots.loc[pot, "signature"]]
-    words = [f"Pots hiding nothing: {len(quiet)}, flagged {len(false)}" + (f" ({', '.join(false)})." if false else ".")]
-    for effect in sorted({e for e in line.effects.values() if e != "no_effect"}):
-        hiding = [pot for pot in pots.index if line.effects[pot] == effect]
-        found = [g["group"] for g in groups if set(g["pots"]) & set(hiding)]
-        verdicts = [f"{g}: {judged(findings[g])}" for g in found if g in findings and "accepted" in findings[g]]
-        words.append(
-            f"{effect} ({', '.join(hiding)}): in group{'s' * (len(found) != 1)} {', '.join(found) or 'none'}"
-            + (f"; {'; '.join(verdicts)}" if verdicts else "") + "."
-        )  # fmt: skip
-    return words

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from ..discover.cases.truth import Truth, changed_equations, correction_variables
-from ..discover.core.hypotheses import candidate_hypotheses
+from ..discover.findings import corrected_model
 from ..physics import BALANCES, CellModel
 from ..variables import STATES
 from .sparse import SparseFit
@@ -43,20 +43,14 @@ class Answer(dict):
 def ours_answer(found: Mapping[str, Any], start: CellModel) -> Answer:
     """Our discovery's answer, read from its findings.json; the corrected model rebuilt from the
     applied closed forms round by round (hypothesis, terms, coefficients), named or not identifiable."""
-    model, terms, texts = start, [], []
+    terms, texts = [], []
     for r in found["rounds"]:
         named = r["correction"]  # applied, whether or not the data could name it
-        if not named:
-            continue
-        hypothesis = next(h for h in candidate_hypotheses(model) if h.key == named["hypothesis"])
-        library = {f.name: f for f in hypothesis.features(rich=True) + hypothesis.features(rich=False)}
-        features = [library[c["term"]] for c in named["coefficients"]]
-        values = [c["value"] for c in named["coefficients"]]
-        model = hypothesis.corrected(model, features, values)
-        terms += [(named["hypothesis"], None, c["term"], c["value"]) for c in named["coefficients"]]
-        texts.append(f"{named['hypothesis']}: {named['closed_form']}")
+        if named:
+            terms += [(named["hypothesis"], None, c["term"], c["value"]) for c in named["coefficients"]]
+            texts.append(f"{named['hypothesis']}: {named['closed_form']}")
     names = [r["named"]["hypothesis"] for r in found["rounds"] if r["named"]]
-    return Answer(named=names, model=model, terms=terms, correction=" | ".join(texts),
+    return Answer(named=names, model=corrected_model(found, start), terms=terms, correction=" | ".join(texts),
                   seconds=found["discovery_seconds"])  # fmt: skip
 
 

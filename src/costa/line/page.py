@@ -1,0 +1,98 @@
+"""The line's page: its pots by how they disagree, each group's outcome and its correction checked on
+the pots, and on a simulated line how the groups match what is hidden."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import pandas as pd
+
+from .check import differing_pots, explained_pots
+
+__all__ = ["line_page"]
+
+
+def line_page(
+    line, table: pd.DataFrame, groups: Sequence[Mapping[str, Any]], findings: Mapping[str, Mapping],
+    checks: Mapping[str, pd.DataFrame],
+) -> str:  # fmt: skip
+    """The page of ``line`` from its table (:func:`.groups.line_table`), its ``groups``, each group's
+    ``findings`` (group -> its findings.json) and ``checks`` (group -> its correction on every pot that
+    disagrees, :func:`.check.check_pots`)."""
+    pots = table.groupby("pot", sort=False).first()
+    group_of = {pot: g["group"] for g in groups for pot in g["pots"]}
+    flagged = sum(bool(s) for s in pots["signature"])
+    lines = [
+        f"# The line {line.name}", "",
+        f"{len(pots)} pots screened with the starting model ({line.starting_model}); {flagged} disagree beyond noise, "
+        f"in {len(groups)} group{'s' * (len(groups) != 1)}, each of the pots that one hypothesis explains as well as any.", "",
+        "| pot | group | disagrees (channel, sign of the bias) | largest chi2/dof | explained by"
+        + (" | hidden |" if line.simulated else " |"),
+        "|---|---|---|---|---|" + ("---|" if line.simulated else ""),
+    ]  # fmt: skip
+    largest = table.groupby("pot", sort=False)["chi2_per_dof"].max()
+    best = {pot: h for g in groups for pot in g["pots"] if (h := g["hypothesis"])}
+    for pot, row in pots.iterrows():
+        cells = [pot, group_of.get(pot, "—"), row["signature"] or "nothing", f"{largest[pot]:.3g}", best.get(pot, "—")]
+        lines.append("| " + " | ".join(cells + ([row["hidden"]] if line.simulated else [])) + " |")
+    lines += [
+        "", "| group | pots | outcome | named | closed form | its pots it leaves disagreeing | other pots it explains |",
+        "|---|---|---|---|---|---|---|",
+    ]  # fmt: skip
+    for g in groups:
+        f, check = findings.get(g["group"], {}), checks.get(g["group"])
+        correction = next((r.get("correction") for r in f.get("rounds", []) if r.get("correction")), None)
+        left = differing_pots(check, pots=g["pots"]) if check is not None else []
+        explains = explained_pots(check, g["pots"]) if check is not None else []
+        lines.append(
+            f"| {g['group']} | {', '.join(g['pots'])} | {f.get('outcome', '—')} | {', '.join(f.get('named', [])) or '—'} "
+            f"| {correction['closed_form'] if correction else '—'} | {', '.join(left) or 'none'} | {', '.join(explains) or 'none'} |"
+        )  # fmt: skip
+    lines += [
+        "", "Each group's correction is checked on every pot that disagrees, alone. A pot of the group it leaves "
+        "disagreeing differs from the rest: the effect stronger or weaker in it (its coefficient), or something more "
+        "missing. A pot of another group it brings within noise misses the same physics (the one-by-one screens could "
+        "not tell).",
+    ]  # fmt: skip
+    if line.simulated:
+        lines += ["", *_scored(line, pots, groups, findings, checks)]
+    return "\n".join(lines) + "\n"
+
+
+def _scored(
+    line, pots: pd.DataFrame, groups: Sequence[Mapping[str, Any]], findings: Mapping[str, Mapping],
+    checks: Mapping[str, pd.DataFrame],
+) -> list[str]:  # fmt: skip
+    """How a simulated line's groups match what its pots hide: for each effect the groups its pots are
+    in, the pots each named group's correction explains (its own within noise and the others it
+    brings there), and each group's verdict."""
+    from ..discover.summary import judged
+
+    quiet = [pot for pot in pots.index if line.effects[pot] == "no_effect"]
+    false = [pot for pot in quiet if pots.loc[pot, "signature"]]
+    words = [f"Pots hiding nothing: {len(quiet)}, flagged {len(false)}" + (f" ({', '.join(false)})." if false else ".")]
+    for effect in sorted({e for e in line.effects.values() if e != "no_effect"}):
+        hiding = [pot for pot in pots.index if line.effects[pot] == effect]
+        found = [g for g in groups if set(g["pots"]) & set(hiding)]
+        verdicts = [
+            f"{g['group']}: {judged(findings[g['group']])}" for g in found
+            if g["group"] in findings and "accepted" in findings[g["group"]]
+        ]  # fmt: skip
+        explained = [
+            f"{g['group']}'s correction explains {', '.join(pots_) or 'none'}" for g in found
+            if (pots_ := _explained_by(g, checks.get(g["group"])))
+        ]  # fmt: skip
+        words.append(
+            f"{effect} ({', '.join(hiding)}): in group{'s' * (len(found) != 1)} {', '.join(g['group'] for g in found) or 'none'}"
+            + "".join(f"; {w}" for w in verdicts + explained) + "."
+        )  # fmt: skip
+    return words
+
+
+def _explained_by(group: Mapping[str, Any], check: pd.DataFrame | None) -> list[str]:
+    """The pots a group's correction brings within noise: its own it does not leave disagreeing, and the others it explains."""
+    if check is None:
+        return []
+    own = [pot for pot in group["pots"] if pot not in differing_pots(check, pots=group["pots"])]
+    return own + explained_pots(check, group["pots"])
