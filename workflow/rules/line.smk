@@ -96,6 +96,8 @@ rule line_group_data:
 rule line_group_discovery:
     """Discovery on one group's pots together: one name, one closed form for all of them."""
     input:
+        # the checkpoint's first output: a cluster job reads the checkpoint in its params only where it is an input
+        checkpoint=out("line/{line}/line.csv"),
         train=out("line/{line}/groups/{group}/data/train.parquet"),
         held_out=out("line/{line}/groups/{group}/data/held_out.parquet"),
         code=DISCOVERY_CODE,
@@ -129,6 +131,7 @@ rule line_group_check:
     """The group's one correction checked on every pot that disagrees, alone: which of its own it
     leaves disagreeing, which of the others it explains."""
     input:
+        checkpoint=out("line/{line}/line.csv"),  # the checkpoint's first output, as above
         findings=out("line/{line}/groups/{group}/findings.json"),
         records=line_flagged_records,
         code=DISCOVERY_CODE + package_files("line/check.py", "line/pots.py"),
