@@ -164,8 +164,8 @@ def check_pot_line_example(command, tmp_path):
 
 
 def check_line_dry_run(command, tmp_path):
-    """The simulated line's DAG up to its checkpoint (its pots simulated and screened, then grouped); the
-    whole line runs small in tests/test_line.py (integration tier)."""
+    """A simulated line of 24 pots: its DAG up to its checkpoint (its pots simulated and screened, then
+    grouped); the whole line runs small in tests/test_line.py (integration tier)."""
     target, config = command.removeprefix("snakemake --cores 2 ").split(" --configfile ")
     (tmp_path / config).parent.mkdir(parents=True)
     shutil.copy(REPOSITORY / config, tmp_path / config)
@@ -395,6 +395,7 @@ FAST_CHECKS = {
     "python -m costa.cell_constants my.yaml": check_cell_constants,
     "snakemake --cores 2 results/historian/pot12/record.parquet --configfile pot12.yaml": check_historian_import,
     "snakemake --cores 2 results/line/line24/line.md --configfile config/line.yaml": check_line_dry_run,
+    "snakemake --cores 2 results/line/tap24/line.md --configfile config/line_tapping.yaml": check_line_dry_run,
     "snakemake --cores 2 --unlock": check_resume,
     "snakemake --cores 2 --rerun-incomplete": check_resume,
     "snakemake --workflow-profile workflow/profiles/slurm": check_cluster,
