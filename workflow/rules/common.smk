@@ -426,7 +426,9 @@ def line_flagged_pots(wildcards):
 
 def line_flagged_records(wildcards):
     """The records of the pots that disagree with the starting model."""
-    return [pot_record_path(wildcards.line, pot) for pot in line_flagged_pots(wildcards)]
+    return [
+        pot_record_path(wildcards.line, pot) for pot in line_flagged_pots(wildcards)
+    ]
 
 
 def line_group_records(wildcards):
@@ -451,7 +453,8 @@ def line_group_name(wildcards):
 def line_group_findings(wildcards, name="findings.json"):
     """Every group's findings (or another of its files), once the line's checkpoint has grouped the pots."""
     return [
-        out(f"line/{wildcards.line}/groups/{g['group']}/{name}") for g in _line_groups(wildcards)
+        out(f"line/{wildcards.line}/groups/{g['group']}/{name}")
+        for g in _line_groups(wildcards)
     ]
 
 
