@@ -159,7 +159,9 @@ def result_hashes(workdir: Path, results: str = "results/smoke") -> dict[str, st
             continue
         content = path.read_bytes()
         if path.suffix == ".json":
-            record = {k: v for k, v in json.loads(content).items() if k not in TIMING_FIELDS}
+            record = json.loads(content)
+            if isinstance(record, dict):
+                record = {k: v for k, v in record.items() if k not in TIMING_FIELDS}
             content = json.dumps(record, sort_keys=True).encode()
         elif path.suffix == ".csv":
             table = pd.read_csv(io.BytesIO(content))
