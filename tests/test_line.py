@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import snakemake
 
 from costa.config import ConfigError, load_config
+from costa.data import write_trajectories
 from costa.discover.cases.shipped import CASES
 from costa.discover.pipeline import settings_from_config, starting_model
 from costa.line.check import check_pots, differing_pots, explained_pots
@@ -135,6 +138,24 @@ def test_a_pot_that_hides_nothing_agrees_and_one_tapped_short_disagrees_in_its_m
     true, _ = CASES["tapping_shortfall"].models(model)  # the model each pot was made with agrees with it, the other not
     checked = check_pots({"start": model, "true": true}, records, line.declared_noise(default_config), settings)
     assert differing_pots(checked, "start") == ["pot01"] and differing_pots(checked, "true") == ["pot00"]
+
+
+def test_a_line_of_your_records_screens_each_file_and_simulates_nothing(default_config, tmp_path):
+    """``line: records:``: each pot's file (the data contract, one trajectory) is screened as it is;
+    the DAG up to the checkpoint has a screen a pot and no simulated pot."""
+    line = Line.from_config({"name": "t", "starting_model": "full", "held_out_fraction": 0.34, "simulated": {
+        "pots": 2, "sensors": "pot_line", "groups": []}})  # fmt: skip
+    for pot in line.pots:
+        write_trajectories(pot_record(default_config, line, pot), tmp_path / f"{pot}.parquet", {})
+    (tmp_path / "mine.yaml").write_text(
+        "output: {results: results/mine, report: results/mine/report}\n"
+        "line: {name: mine, records: {pot12: pot00.parquet, pot13: pot01.parquet}, noise: {x6: 1.5, c3: 0.002, x5: 15}}\n"
+    )
+    result = snakemake(
+        tmp_path, "results/mine/line/mine/line.md", "--configfile", "mine.yaml", "--dry-run", check=False
+    )
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert re.search(r"line_screen\s+2\b", result.stdout) and "line_pot" not in result.stdout, result.stdout[-2000:]
 
 
 @pytest.mark.integration
