@@ -424,6 +424,14 @@ def line_flagged_pots(wildcards):
     return [pot for g in _line_groups(wildcards) for pot in g["pots"]]
 
 
+def line_flagged_screens(wildcards):
+    """The screens of the pots that disagree with the starting model."""
+    return [
+        out(f"line/{wildcards.line}/pots/{pot}/screen.json")
+        for pot in line_flagged_pots(wildcards)
+    ]
+
+
 def line_flagged_records(wildcards):
     """The records of the pots that disagree with the starting model."""
     return [

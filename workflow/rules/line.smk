@@ -128,12 +128,13 @@ rule line_group_discovery:
 
 
 rule line_group_check:
-    """The group's one correction checked on every pot that disagrees, alone: which of its own it
-    leaves disagreeing, which of the others it explains."""
+    """The group's one correction checked on every pot that disagrees, alone (under the starting
+    model, its screen's tests): which of its own it leaves disagreeing, which of the others it explains."""
     input:
         checkpoint=out("line/{line}/line.csv"),  # the checkpoint's first output, as above
         findings=out("line/{line}/groups/{group}/findings.json"),
         records=line_flagged_records,
+        screens=line_flagged_screens,
         code=DISCOVERY_CODE + package_files("line/check.py", "line/pots.py"),
     output:
         pots=out("line/{line}/groups/{group}/pots.csv"),

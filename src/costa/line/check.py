@@ -2,8 +2,9 @@
 of the group's pots, and which other pots does it explain?
 
 Discovery on a group fits one closed form on its pots together.  Each pot that the screen flagged is
-then filtered again alone, under the starting model and under the group's corrected one, and each
-measured channel tested as the screen tests it (:func:`costa.discover.sparse.rounds.channel_tests`).
+then filtered again alone under the group's corrected model, and each measured channel tested as
+the screen tests it (:func:`costa.discover.sparse.rounds.channel_tests`); under the starting model
+the screen's own tests stand (:func:`screened`: the same filter, not run again).
 A pot of the group that the correction still leaves beyond noise differs from the rest of the group:
 its coefficient (the effect stronger or weaker there) or something more missing in it.  A pot of
 another group that the correction brings within noise misses the same physics: the pots' one-by-one
@@ -21,7 +22,7 @@ from ..discover.sparse.pipeline import observations
 from ..discover.sparse.rounds import channel_tests
 from ..physics import CellModel
 
-__all__ = ["check_pots", "differing_pots", "explained_pots"]
+__all__ = ["check_pots", "differing_pots", "explained_pots", "screened"]
 
 
 def check_pots(
@@ -41,6 +42,15 @@ def check_pots(
                 for t in tests
             ]  # fmt: skip
     return pd.DataFrame(rows)
+
+
+def screened(screens: Mapping[str, Mapping], model: str = "start") -> pd.DataFrame:
+    """The rows :func:`check_pots` gives under the model the pots were screened with, read from their
+    screens (pot -> :func:`.screen.screen_pot`), labelled ``model``."""
+    return pd.DataFrame([
+        {"pot": pot, "model": model, "channel": c["channel"], "chi2_per_dof": c["chi2_per_dof"], "flagged": c["flagged"]}
+        for pot, screen in screens.items() for c in screen["channels"]
+    ])  # fmt: skip
 
 
 def differing_pots(checked: pd.DataFrame, model: str = "corrected", pots: Sequence[str] | None = None) -> list[str]:
