@@ -129,7 +129,8 @@ rule line_group_discovery:
 
 rule line_group_check:
     """The group's one correction checked on every pot that disagrees, alone (under the starting
-    model, its screen's tests): which of its own it leaves disagreeing, which of the others it explains."""
+    model, its screen's tests): which of its own it leaves disagreeing, which of the others it explains.
+    """
     input:
         checkpoint=out("line/{line}/line.csv"),  # the checkpoint's first output, as above
         findings=out("line/{line}/groups/{group}/findings.json"),
