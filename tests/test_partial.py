@@ -85,6 +85,21 @@ def test_a_hypothesis_not_fitted_stands_while_its_free_delta_could_explain_as_mu
     assert could_explain_as_well(chosen, screen, margin=10.0) == ([] if excluded else [h])
 
 
+def test_a_refinement_pass_keeps_the_strongest_of_terms_that_each_cover_zero():
+    """Two terms that stand in for one another each cover zero while together they carry the
+    correction: the pass keeps the stronger (|c| over its spread) to be refined alone, drops a
+    third that covers zero too, and drops a last term that covers zero; one that excludes zero
+    is never dropped."""
+    from costa.discover.sparse.filter.search import _dropped
+
+    draws = np.random.default_rng(0).standard_normal((2000, 3))
+    coefficients = np.array([1.0, 2.0, 0.1])
+    assert _dropped(coefficients, coefficients + draws) == [0, 2]
+    assert _dropped(coefficients[:1], coefficients[:1] + draws[:, :1]) == [0]
+    assert _dropped(np.array([10.0, 0.1]), np.array([10.0, 0.1]) + draws[:, :2]) == [1]
+    assert _dropped(np.array([10.0]), 10.0 + draws[:, :1]) == []
+
+
 @pytest.mark.integration
 def test_paper_liquidus_is_named_from_partial_measurements(default_config):
     """No ledge, no masses measured: bath and wall temperature, metal, cell voltage and composition.

@@ -150,7 +150,7 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     and the AlF3 content), the channels weigh it against the variables it stands for.  Each
     added term starts at 0, with a prior width (five times its samples' spread) that makes it
     twice as large as the smoothed delta (mean absolute values over the data).  The terms whose
-    interval then covers zero are dropped and the rest refined again, in one pass linearised at
+    interval then covers zero are dropped (:func:`_dropped`) and the rest refined again, in one pass linearised at
     the coefficients already refined (all at once: each pass is a run of the filter over every
     trajectory).  Unchanged where the refinement is not trustworthy."""
     original, succeeded = fit, False
@@ -174,13 +174,27 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
             return (features, coefficients, samples) if succeeded else original
         (coefficients, covariance), succeeded = refined, True
         samples = rng.multivariate_normal(coefficients, covariance, size=len(samples), method="eigh")
-        low, high = np.quantile(samples, [(1 - KEEP_LEVEL) / 2, (1 + KEEP_LEVEL) / 2], axis=0)
-        unneeded = [i for i in range(len(features)) if low[i] <= 0 <= high[i]]
+        unneeded = _dropped(coefficients, samples)
         if not unneeded:
             break
         keep = [i for i in range(len(features)) if i not in unneeded]
         features, coefficients, samples = [features[i] for i in keep], coefficients[keep], samples[:, keep]
     return features, coefficients, samples
+
+
+def _dropped(coefficients: np.ndarray, samples: np.ndarray) -> list[int]:
+    """The terms a refinement pass drops: those whose interval (:data:`KEEP_LEVEL` of the posterior
+    ``samples``, (draws, terms)) covers zero, but where that is every term of several, the strongest
+    (largest |coefficient| over its spread) stays to be refined alone: terms that stand in for one
+    another (a constant and a slow state) can each cover zero while together they carry the
+    correction (a tapping shortfall pooled on 5 pots: all five dropped, the constant at -0.101).
+    A last term that covers zero is dropped."""
+    low, high = np.quantile(samples, [(1 - KEEP_LEVEL) / 2, (1 + KEEP_LEVEL) / 2], axis=0)
+    covering = [i for i in range(len(coefficients)) if low[i] <= 0 <= high[i]]
+    if 1 < len(covering) == len(coefficients):
+        strength = np.abs(coefficients) / (samples.std(axis=0) + 1e-300)
+        covering.remove(int(np.argmax(strength)))
+    return covering
 
 
 def best_screened(screened: Sequence[HypothesisScore], settings: DiscoverySettings) -> list[HypothesisScore]:
@@ -303,6 +317,7 @@ def _fit(
         inclusion=inclusion,
     )
     if not features:
+        log.info("%s: no term held in the refinement, not fitted", score.hypothesis.key)
         return candidate
     corrected = score.hypothesis.corrected(model, features, coefficients)
     candidate.placed = obs.searched_again(corrected)
