@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -226,6 +227,15 @@ def mostly_lost(held: np.ndarray) -> bool:
     return 2 * int(np.sum(held)) <= len(held)
 
 
+class Refined(NamedTuple):
+    """A closed form's coefficients refined on the measured channels (:func:`refine_coefficients`)."""
+
+    coefficients: np.ndarray  # (P,)
+    covariance: np.ndarray  # (P, P)
+    held: int  # trajectories whose filter held in the last pass
+    log_likelihood: float  # of the measured channels on those, in the last pass (the coefficients as states)
+
+
 def refine_coefficients(
     model: CellModel,
     hypothesis: Hypothesis,
@@ -234,7 +244,7 @@ def refine_coefficients(
     width: np.ndarray,
     obs: Observations,
     passes: int = 2,
-) -> tuple[np.ndarray, np.ndarray] | None:
+) -> Refined | None:
     """Maximum-likelihood coefficients (P,) of a closed form and their covariance (P, P), on every
     trajectory of ``obs``.
 
@@ -275,4 +285,5 @@ def refine_coefficients(
         if np.any(np.linalg.eigvalsh(0.5 * (total + total.T)) <= 0):
             return None
         theta = width * np.linalg.solve(total, np.einsum("nij,nj->i", precisions, means) - (m - 1) * theta / width)
-    return theta, np.linalg.inv(total) * np.outer(width, width)
+    likelihood = float(np.sum(result.log_likelihood[held]))
+    return Refined(theta, np.linalg.inv(total) * np.outer(width, width), m, likelihood)

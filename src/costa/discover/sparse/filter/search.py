@@ -150,7 +150,8 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     and the AlF3 content), the channels weigh it against the variables it stands for.  Each
     added term starts at 0, with a prior width (five times its samples' spread) that makes it
     twice as large as the smoothed delta (mean absolute values over the data).  The terms whose
-    interval then covers zero are dropped (:func:`_dropped`) and the rest refined again, in one pass linearised at
+    interval then covers zero are dropped (all but the best alone, :func:`_best_alone`, where
+    that is every one) and the rest refined again, in one pass linearised at
     the coefficients already refined (all at once: each pass is a run of the filter over every
     trajectory).  Unchanged where the refinement is not trustworthy."""
     original, succeeded = fit, False
@@ -166,15 +167,18 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
         spread = 0.4 * size / np.maximum(typical, 1e-300)  # the prior width below, 5 spreads: twice the delta
         samples = np.column_stack([samples, rng.standard_normal((len(samples), len(added))) * spread])
     while features:
-        width = np.maximum(0.5 * np.abs(coefficients), 5 * samples.std(axis=0)) + 1e-300
+        width = _prior_width(coefficients, samples)
         refined = refine_coefficients(
             model, h, features=features, coefficients=coefficients, width=width, obs=obs, passes=1 if succeeded else 2
         )
         if refined is None:
             return (features, coefficients, samples) if succeeded else original
-        (coefficients, covariance), succeeded = refined, True
-        samples = rng.multivariate_normal(coefficients, covariance, size=len(samples), method="eigh")
-        unneeded = _dropped(coefficients, samples)
+        coefficients, succeeded = refined.coefficients, True
+        samples = rng.multivariate_normal(coefficients, refined.covariance, size=len(samples), method="eigh")
+        unneeded = _covering_zero(samples)
+        if 1 < len(unneeded) == len(features):
+            unneeded.remove(best := _best_alone(h, model, obs, features, coefficients, samples))
+            log.info("%s: every term covers zero; %s fits best alone and stays", h.key, features[best].name)
         if not unneeded:
             break
         keep = [i for i in range(len(features)) if i not in unneeded]
@@ -182,19 +186,40 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
     return features, coefficients, samples
 
 
-def _dropped(coefficients: np.ndarray, samples: np.ndarray) -> list[int]:
-    """The terms a refinement pass drops: those whose interval (:data:`KEEP_LEVEL` of the posterior
-    ``samples``, (draws, terms)) covers zero, but where that is every term of several, the strongest
-    (largest |coefficient| over its spread) stays to be refined alone: terms that stand in for one
-    another (a constant and a slow state) can each cover zero while together they carry the
-    correction (a tapping shortfall pooled on 5 pots: all five dropped, the constant at -0.101).
-    A last term that covers zero is dropped."""
+def _prior_width(coefficients: np.ndarray, samples: np.ndarray) -> np.ndarray:
+    """The prior width of each coefficient (P,) refined on the measured channels: half its size or five
+    times the spread of its ``samples`` (draws, P), whichever is larger."""
+    return np.maximum(0.5 * np.abs(coefficients), 5 * samples.std(axis=0)) + 1e-300
+
+
+def _strength(coefficients: np.ndarray, samples: np.ndarray) -> np.ndarray:
+    """Each term's |coefficient| over the spread of its posterior ``samples`` (draws, P)."""
+    return np.abs(coefficients) / (samples.std(axis=0) + 1e-300)
+
+
+def _covering_zero(samples: np.ndarray) -> list[int]:
+    """The terms whose interval (:data:`KEEP_LEVEL` of the posterior ``samples``, (draws, terms)) covers zero."""
     low, high = np.quantile(samples, [(1 - KEEP_LEVEL) / 2, (1 + KEEP_LEVEL) / 2], axis=0)
-    covering = [i for i in range(len(coefficients)) if low[i] <= 0 <= high[i]]
-    if 1 < len(covering) == len(coefficients):
-        strength = np.abs(coefficients) / (samples.std(axis=0) + 1e-300)
-        covering.remove(int(np.argmax(strength)))
-    return covering
+    return [i for i in range(samples.shape[1]) if low[i] <= 0 <= high[i]]
+
+
+def _best_alone(
+    h: Hypothesis, model: CellModel, obs: Observations, features, coefficients: np.ndarray, samples: np.ndarray
+) -> int:  # fmt: skip
+    """Of terms that each cover zero, the one that, refined alone, fits the measured channels best (on
+    the most trajectories held, then by likelihood): terms that stand in for one another (a constant
+    and a slow state) can each cover zero while together they carry the correction (a tapping
+    shortfall pooled on 5 pots: every term dropped in one pass, the constant at -0.101), and which of
+    them is strongest over its spread is chance.  The strongest where none refines alone."""
+    width = _prior_width(coefficients, samples)
+    fits = {
+        i: refine_coefficients(model, h, features=[f], coefficients=coefficients[i : i + 1], width=width[i : i + 1], obs=obs)
+        for i, f in enumerate(features)
+    }  # fmt: skip
+    held = {i: (r.held, r.log_likelihood) for i, r in fits.items() if r is not None}
+    if not held:
+        return int(np.argmax(_strength(coefficients, samples)))
+    return max(held, key=held.get)
 
 
 def best_screened(screened: Sequence[HypothesisScore], settings: DiscoverySettings) -> list[HypothesisScore]:
@@ -337,15 +362,15 @@ def _cut(candidate: SparseCandidate, budget: int, model: CellModel, settings: Di
     strongest terms (largest |coefficient| over its posterior spread), refined again on the
     measured channels and scored from the start the cut model searches itself."""
     h, samples = candidate.hypothesis, candidate.samples
-    strength = np.abs(candidate.coefficients) / (samples.std(axis=0) + 1e-300)
+    strength = _strength(candidate.coefficients, samples)
     keep = np.sort(np.argsort(-strength, kind="stable")[:budget])
     features, coefficients = [candidate.features[i] for i in keep], candidate.coefficients[keep]
-    width = np.maximum(0.5 * np.abs(coefficients), 5 * samples[:, keep].std(axis=0)) + 1e-300
+    width = _prior_width(coefficients, samples[:, keep])
     refined = refine_coefficients(
         model, h, features=features, coefficients=coefficients, width=width, obs=candidate.placed
     )
     if refined is not None:
-        coefficients = refined[0]
+        coefficients = refined.coefficients
     corrected = h.corrected(model, features, coefficients)
     _, after = channel_tests(corrected, candidate.placed.searched_again(corrected), settings, backward=False)
     return after.log_likelihood
