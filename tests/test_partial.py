@@ -17,7 +17,7 @@ from costa.discover.core.hypotheses import candidate_hypotheses
 from costa.discover.core.naming import fit_outcome
 from costa.discover.core.settings import DiscoverySettings
 from costa.discover.findings import findings, findings_markdown
-from costa.discover.pipeline import run_discovery, starting_model
+from costa.discover.pipeline import run_discovery, settings_from_config, starting_model
 from costa.discover.sparse.filter.likelihood import hypothesis_scales
 from costa.discover.sparse.filter.search import discover_round
 from costa.discover.sparse.innovations import innovation_tests
@@ -752,9 +752,11 @@ def test_of_terms_that_each_cover_zero_the_one_that_fits_best_alone_stays(monkey
     coefficients = np.array([-0.001, 0.5])
     samples = coefficients + np.random.default_rng(2).standard_normal((400, 2)) * [0.001, 0.4]
     assert _covering_zero(samples) == [0, 1]
-    assert _best_alone(term, model, obs, features, coefficients, samples) == 0
+    settings = settings_from_config(load_config())
+    alone = dict(features=features, coefficients=coefficients, samples=samples)
+    assert _best_alone(term, model, obs, settings, **alone) == 0
     monkeypatch.setattr(search, "refine_coefficients", lambda *args, **kwargs: None)
-    assert _best_alone(term, model, obs, features, coefficients, samples) == 1
+    assert _best_alone(term, model, obs, settings, **alone) == 1
 
 
 def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monkeypatch):

@@ -138,7 +138,10 @@ def _closed_form(
     return [library[i] for i in terms], solve_subset(G, b, terms), samples, inclusion_by_name
 
 
-def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: Smoothed, rich: bool, rng):
+def _refined(
+    h: Hypothesis, model: CellModel, obs: Observations, settings: DiscoverySettings, *, fit, smoothed: Smoothed,
+    rich: bool, rng,
+):  # fmt: skip
     """The closed form ``fit`` (features, coefficients, samples) refined on the measured channels
     (:func:`.likelihood.refine_coefficients`), with samples of their posterior in place of the bootstrap's.
 
@@ -177,7 +180,8 @@ def _refined(h: Hypothesis, model: CellModel, obs: Observations, fit, smoothed: 
         samples = rng.multivariate_normal(coefficients, refined.covariance, size=len(samples), method="eigh")
         unneeded = _covering_zero(samples)
         if 1 < len(unneeded) == len(features):
-            unneeded.remove(best := _best_alone(h, model, obs, features, coefficients, samples))
+            best = _best_alone(h, model, obs, settings, features=features, coefficients=coefficients, samples=samples)
+            unneeded.remove(best)
             log.info("%s: every term covers zero; %s fits best alone and stays", h.key, features[best].name)
         if not unneeded:
             break
@@ -204,22 +208,28 @@ def _covering_zero(samples: np.ndarray) -> list[int]:
 
 
 def _best_alone(
-    h: Hypothesis, model: CellModel, obs: Observations, features, coefficients: np.ndarray, samples: np.ndarray
+    h: Hypothesis, model: CellModel, obs: Observations, settings: DiscoverySettings, *, features,
+    coefficients: np.ndarray, samples: np.ndarray,
 ) -> int:  # fmt: skip
-    """Of terms that each cover zero, the one that, refined alone, fits the measured channels best (on
-    the most trajectories held, then by likelihood): terms that stand in for one another (a constant
-    and a slow state) can each cover zero while together they carry the correction (a tapping
-    shortfall pooled on 5 pots: every term dropped in one pass, the constant at -0.101), and which of
-    them is strongest over its spread is chance.  The strongest where none refines alone."""
-    width = _prior_width(coefficients, samples)
-    fits = {
-        i: refine_coefficients(model, h, features=[f], coefficients=coefficients[i : i + 1], width=width[i : i + 1], obs=obs)
-        for i, f in enumerate(features)
-    }  # fmt: skip
-    held = {i: (r.held, r.log_likelihood) for i, r in fits.items() if r is not None}
-    if not held:
+    """Of terms that each cover zero, the one that, refined alone, corrects the model best by the
+    round's own score (the measured channels' likelihood from the start the corrected model searches
+    itself, on the most trajectories held): terms that stand in for one another (a constant and a
+    slow state) can each cover zero while together they carry the correction (a tapping shortfall
+    pooled on 5 pots: every term dropped in one pass, the constant at -0.101), and which of them is
+    strongest over its spread is chance.  The strongest where none refines alone."""
+    width, scores = _prior_width(coefficients, samples), {}
+    for i, f in enumerate(features):
+        alone = refine_coefficients(
+            model, h, [f], coefficients=coefficients[i : i + 1], width=width[i : i + 1], obs=obs
+        )
+        if alone is not None:
+            corrected = h.corrected(model, [f], alone.coefficients)
+            _, after = channel_tests(corrected, obs.searched_again(corrected), settings, backward=False)
+            held = np.isfinite(after.log_likelihood)
+            scores[i] = (int(held.sum()), float(after.log_likelihood[held].sum()))
+    if not scores:
         return int(np.argmax(_strength(coefficients, samples)))
-    return max(held, key=held.get)
+    return max(scores, key=scores.get)
 
 
 def best_screened(screened: Sequence[HypothesisScore], settings: DiscoverySettings) -> list[HypothesisScore]:
@@ -331,7 +341,7 @@ def _fit(
     features, coefficients, _ = fit
     placed = obs.searched_again(score.hypothesis.corrected(model, features, coefficients)) if features else obs
     features, coefficients, samples = _refined(
-        score.hypothesis, model, obs=placed, fit=fit, smoothed=smoothed, rich=rich, rng=rng
+        score.hypothesis, model, placed, settings, fit=fit, smoothed=smoothed, rich=rich, rng=rng
     )
     candidate = SparseCandidate(
         score=score,
