@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 
 import numpy as np
 import pandas as pd
@@ -11,7 +12,7 @@ import pytest
 from conftest import snakemake
 
 from costa.config import ConfigError, load_config
-from costa.data import write_trajectories
+from costa.data import TrajectoryDataError, write_trajectories
 from costa.discover.cases.shipped import CASES
 from costa.discover.pipeline import settings_from_config, starting_model
 from costa.line.check import check_pots, differing_pots, explained_pots
@@ -156,6 +157,66 @@ def test_a_line_of_your_records_screens_each_file_and_simulates_nothing(default_
     )
     assert result.returncode == 0, result.stderr[-4000:]
     assert re.search(r"line_screen\s+2\b", result.stdout) and "line_pot" not in result.stdout, result.stdout[-2000:]
+
+
+def test_a_line_of_historian_exports_imports_each_pot_then_screens_it(tmp_path):
+    """``line: historian:``: each pot's export is imported by its own job (its tag map its own or the
+    line's) and then screened; a pot without any tag map is named in one line."""
+    for name in ("a.csv", "b.csv", "tags.yaml", "b_tags.yaml", "b_lab.csv"):
+        (tmp_path / name).write_text("")
+    pots = "{pot12: {export: a.csv}, pot13: {export: b.csv, tags: b_tags.yaml, lab: b_lab.csv}}"
+    (tmp_path / "mine.yaml").write_text(
+        "output: {results: results/mine, report: results/mine/report}\n"
+        f"line: {{name: mine, historian: {{tags: tags.yaml, pots: {pots}, unlogged_inputs: {{u5: 0.05}}}},"
+        " noise: {x6: 1.5, c3: 0.002, x5: 15}}\n"
+    )
+    result = snakemake(
+        tmp_path, "results/mine/line/mine/line.csv", "--configfile", "mine.yaml", "--dry-run", check=False
+    )
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert re.search(r"line_pot_import\s+2\b", result.stdout) and re.search(r"line_screen\s+2\b", result.stdout)
+    assert "b_lab.csv" in result.stdout and not re.search(r"line_pot\s+\d", result.stdout), result.stdout[-2000:]
+    line = Line.from_config(
+        load_config(overrides={"line": {"name": "l", "historian": {"pots": {"p1": {"export": "a.csv"}}}}})["line"]
+    )
+    assert line.pots == ("p1",) and not line.simulated and line.historian["max_gap_s"] == 600
+    with pytest.raises(TrajectoryDataError, match=r"line.historian.pots.p1: no tag map"):
+        line.historian_files("p1")
+
+
+@pytest.mark.integration  # about two minutes: two 4-day pots simulated, exported, imported and screened
+def test_two_pots_exported_as_a_historian_writes_them_are_imported_and_screened(tmp_path):
+    """examples/pot-line/make_export.py for two pots (one hiding nothing, one fed 92 % of its
+    command), each imported by its own job from the example's tag map; each pot one stretch (the
+    export's 30 min outage cuts it: the longest kept, the cut in its import report), then screened."""
+    from conftest import repository_copy, run_command
+
+    work = repository_copy(tmp_path / "repo")
+    for pot, case in (("potA", "no_effect"), ("potB", "alumina_feeder")):
+        made = run_command(
+            work,
+            f"PYTHONPATH=src {sys.executable} examples/pot-line/make_export.py --days 4 --case {case} --folder data/{pot}",
+        )
+        assert made.returncode == 0, made.stderr
+    pots = ", ".join(
+        f"{p}: {{export: data/{p}/export.csv, events: data/{p}/events.csv, lab: data/{p}/lab.csv}}"
+        for p in ("potA", "potB")
+    )
+    (work / "hist.yaml").write_text(
+        "output: {results: results/hist, report: results/hist/report}\n"
+        f"line: {{name: hist, historian: {{tags: examples/pot-line/tags.yaml, timezone: Europe/Oslo, pots: {{{pots}}},"
+        " unlogged_inputs: {u5: 0.05}}, noise: {U_pot: 0.005, x6: 1.5, c3: 0.002, x5: 15}}\n"
+    )
+    ran = snakemake(work, "results/hist/line/hist/line.csv", "--configfile", "hist.yaml", check=False)
+    assert ran.returncode == 0, ran.stderr[-4000:]
+    root = work / "results/hist/line/hist"
+    for pot in ("potA", "potB"):
+        assert (root / "pots" / pot / "historian" / "channels.png").exists()
+        record = pd.read_parquet(root / "pots" / pot / "record.parquet")
+        hours = len(record) * 10 / 3600  # the outage on day 2 cuts 96 h in two: the longer kept
+        assert record["trajectory"].nunique() == 1 and 48 < hours < 95, hours
+    flagged = pd.read_csv(root / "line.csv").groupby("pot")["flagged"].any()
+    assert flagged.to_dict() == {"potA": False, "potB": True}
 
 
 @pytest.mark.integration

@@ -393,15 +393,18 @@ def split_search(wildcards):
 
 LINE = Line.from_config(config["line"]) if config["line"] else None
 LINE_NAME = LINE.name if LINE else "^$"
+LINE_SIMULATED_POTS = "|".join(LINE.pots) if LINE and LINE.simulated else "^$"
+LINE_IMPORTED_POTS = "|".join(LINE.pots) if LINE and LINE.historian else "^$"
 
 
 def pot_record_path(line, pot):
-    """A pot's record: simulated (rule line_pot), or your file."""
-    return (
-        out(f"line/{line}/pots/{pot}/record.parquet")
-        if LINE.simulated
-        else LINE.records[pot]
-    )
+    """A pot's record: simulated (rule line_pot) or imported (rule line_pot_import), or your file."""
+    return LINE.records.get(pot) or out(f"line/{line}/pots/{pot}/record.parquet")
+
+
+def line_historian_files(wildcards):
+    """One of your pots' historian files (export, tag map, events and lab samples where given)."""
+    return LINE.historian_files(wildcards.pot)
 
 
 def line_record(wildcards):

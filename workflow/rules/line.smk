@@ -11,6 +11,7 @@ rule line_pot:
         out("line/{line}/pots/{pot}/benchmarks/record.tsv")
     wildcard_constraints:
         line=LINE_NAME,
+        pot=LINE_SIMULATED_POTS,
     conda:
         ENV
     threads: 1
@@ -18,6 +19,35 @@ rule line_pot:
         config=lambda wildcards: config,
     script:
         "../scripts/line_pot.py"
+
+
+rule line_pot_import:
+    """One of your pots from its historian export: imported on the model's step (its import
+    report and figure beside it), its events added to its inputs."""
+    input:
+        unpack(line_historian_files),
+        code=package_files("historian", "events.py", "line/pots.py"),
+    output:
+        record=out("line/{line}/pots/{pot}/record.parquet"),
+        report=out("line/{line}/pots/{pot}/historian/import.md"),
+        figure=report(
+            out("line/{line}/pots/{pot}/historian/channels.png"),
+            category="Pot line",
+            subcategory="Historian imports",
+            caption="../report/captions/historian.rst",
+        ),
+    log:
+        out("line/{line}/pots/{pot}/logs/import.log"),
+    wildcard_constraints:
+        line=LINE_NAME,
+        pot=LINE_IMPORTED_POTS,
+    conda:
+        ENV
+    threads: 1
+    params:
+        config=lambda wildcards: config,
+    script:
+        "../scripts/line_pot_import.py"
 
 
 rule line_screen:
