@@ -38,6 +38,8 @@ rule line_pot_import:
         ),
     log:
         out("line/{line}/pots/{pot}/logs/import.log"),
+    benchmark:
+        out("line/{line}/pots/{pot}/benchmarks/import.tsv")
     wildcard_constraints:
         line=LINE_NAME,
         pot=LINE_IMPORTED_POTS,
