@@ -105,6 +105,7 @@ def test_a_simulated_line_names_its_pots_and_their_effects_and_judges_its_groups
     assert "Pots hiding nothing: 2, flagged 1 (pot02)." in page
     assert "tapping_shortfall (pot01, pot03): in group A; A: right; A's correction explains pot01, pot03." in page
     assert "| A | pot01, pot02, pot03 | found | input:u4 | -0.1 | pot02 | none |" in page
+    assert "- input:u4 (group A, found): pot01, pot03\n- no group's correction: pot02\n" in page
 
 
 def test_a_lines_config_is_checked_across_keys(default_config):

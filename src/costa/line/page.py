@@ -54,6 +54,7 @@ def line_page(
         "disagreeing differs from the rest: the effect stronger or weaker in it (its coefficient), or something more "
         "missing. A pot of another group it brings within noise misses the same physics (the one-by-one screens could "
         "not tell).",
+        "", *_explanations(pots, groups, findings, checks),
     ]  # fmt: skip
     if line.simulated:
         lines += ["", *_scored(line, pots, groups, findings, checks)]
@@ -88,6 +89,24 @@ def _scored(
             + "".join(f"; {w}" for w in verdicts + explained) + "."
         )  # fmt: skip
     return words
+
+
+def _explanations(
+    pots: pd.DataFrame, groups: Sequence[Mapping[str, Any]], findings: Mapping[str, Mapping],
+    checks: Mapping[str, pd.DataFrame],
+) -> list[str]:  # fmt: skip
+    """The line's answer from the checks: each group's applied correction with the pots it brings within
+    noise alone (its own and others'), and the flagged pots no group's correction explains."""
+    words, explained = ["What explains the line's pots, each checked alone:"], set()
+    for g in groups:
+        f = findings.get(g["group"], {})
+        correction = next((r["correction"] for r in f.get("rounds", []) if r.get("correction")), None)
+        if correction and (pots_ := _explained_by(g, checks.get(g["group"]))):
+            explained.update(pots_)
+            name = ", ".join(f.get("named", [])) or correction.get("hypothesis", "its correction")
+            words.append(f"- {name} (group {g['group']}, {f['outcome']}): {', '.join(pots_)}")
+    left = [pot for pot in pots.index if pots.loc[pot, "signature"] and pot not in explained]
+    return words + [f"- no group's correction: {', '.join(left) or 'none'}"]
 
 
 def _explained_by(group: Mapping[str, Any], check: pd.DataFrame | None) -> list[str]:
