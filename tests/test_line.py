@@ -12,7 +12,7 @@ import pytest
 from conftest import snakemake
 
 from costa.config import ConfigError, load_config
-from costa.data import TrajectoryDataError, write_trajectories
+from costa.data import write_trajectories
 from costa.discover.cases.shipped import CASES
 from costa.discover.pipeline import settings_from_config, starting_model
 from costa.line.check import check_pots, differing_pots, explained_pots
@@ -177,12 +177,12 @@ def test_a_line_of_historian_exports_imports_each_pot_then_screens_it(tmp_path):
     assert result.returncode == 0, result.stderr[-4000:]
     assert re.search(r"line_pot_import\s+2\b", result.stdout) and re.search(r"line_screen\s+2\b", result.stdout)
     assert "b_lab.csv" in result.stdout and not re.search(r"line_pot\s+\d", result.stdout), result.stdout[-2000:]
-    line = Line.from_config(
-        load_config(overrides={"line": {"name": "l", "historian": {"pots": {"p1": {"export": "a.csv"}}}}})["line"]
-    )
+    section = {"name": "l", "historian": {"tags": "t.yaml", "pots": {"p1": {"export": "a.csv"}}}}
+    line = Line.from_config(load_config(overrides={"line": section})["line"])
     assert line.pots == ("p1",) and not line.simulated and line.historian["max_gap_s"] == 600
-    with pytest.raises(TrajectoryDataError, match=r"line.historian.pots.p1: no tag map"):
-        line.historian_files("p1")
+    assert line.historian_files("p1") == {"tags": "t.yaml", "export": "a.csv"}
+    with pytest.raises(ConfigError, match=r"^line.historian.pots.p1: no tag map"):
+        load_config(overrides={"line": {**section, "historian": {"pots": {"p1": {"export": "a.csv"}}}}})
 
 
 @pytest.mark.integration  # about two minutes: two 4-day pots simulated, exported, imported and screened

@@ -116,7 +116,12 @@ def check_consistency(config: Mapping[str, Any]) -> None:
 
 
 def _check_line(line: Mapping[str, Any] | None, sensor_sets: Mapping[str, Any]) -> None:
-    """A simulated line's sensor set exists, its groups are shipped cases, each pot in one group at most."""
+    """A simulated line's sensor set exists, its groups are shipped cases, each pot in one group at most;
+    each pot imported from a historian has a tag map (its own or the line's)."""
+    historian = (line or {}).get("historian")
+    for pot, files in (historian or {}).get("pots", {}).items():
+        if not files.get("tags") and not historian["tags"]:
+            raise ConfigError(f"line.historian.pots.{pot}: no tag map (give its tags, or line.historian.tags)")
     simulated = (line or {}).get("simulated")
     if not simulated:
         return

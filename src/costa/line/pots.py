@@ -69,10 +69,7 @@ class Line:
 
     def historian_files(self, pot: str) -> dict[str, str]:
         """One of your pots' historian files: its export, tag map (its own or the line's), events and lab samples where given."""
-        files = {"tags": self.historian.get("tags"), **self.historian["pots"][pot]}
-        if not files["tags"]:
-            raise TrajectoryDataError(f"line.historian.pots.{pot}: no tag map (give tags here or line.historian.tags)")
-        return files
+        return {"tags": self.historian["tags"], **self.historian["pots"][pot]}
 
     def declared_noise(self, config: Mapping) -> dict[str, float]:
         """The noise std of the channels too sparse to estimate it: the sensor set's, or yours."""
