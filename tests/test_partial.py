@@ -706,22 +706,28 @@ def test_a_trajectory_whose_filter_was_lost_leaves_the_closed_form_to_the_others
     assert with_lost["(c3 - 0.11)"] == pytest.approx(-0.02, rel=1e-3)
 
 
+def _alf3_lost(cells: int, stream: str):
+    """The true model, its hypothesis term:alf3_mass, and ``cells`` 2-hour records of a cell losing AlF3 at
+    a constant 0.003 kg/s, measured in its AlF3 fraction (noise 1e-4) and bath temperature (0.2 degC)."""
+    model = true_model()
+    (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
+    truth = term.corrected(model, [f for f in term.features(False) if f.name == "1"], [-0.003])
+    settings = SimulationSettings.from_config(load_config()["simulation"])
+    trajectories, _ = simulate_set(truth, replace(settings, steps=720), cells, 5, 0, stream)
+    x = trajectories.x
+    c3 = x[..., 2:3] / x[..., 1:4].sum(-1, keepdims=True)
+    y = np.concatenate([c3, x[..., 5:6]], axis=-1) + np.random.default_rng(1).normal(0, [1e-4, 0.2], x.shape[:2] + (2,))
+    return model, term, Observations(y=y, u=trajectories.u, channels=("c3", "x6"), noise=np.array([1e-4, 0.2]), dt=10.0)
+
+
 def test_the_refinement_combines_the_trajectories_whose_filter_holds():
     """AlF3 lost at a constant 0.003 kg/s, refined from 0 on four cells' AlF3 fraction, one of which
     has a step the model cannot evaluate (its filter is lost): the other three give the same answer
     as alone, the truth within its interval, where one lost cell used to void the refinement."""
     from costa.discover.sparse.filter.likelihood import refine_coefficients
 
-    model = true_model()
-    (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
+    model, term, obs = _alf3_lost(cells=4, stream="refined")
     constant = [f for f in term.features(False) if f.name == "1"]
-    truth = term.corrected(model, constant, [-0.003])
-    settings = SimulationSettings.from_config(load_config()["simulation"])
-    trajectories, _ = simulate_set(truth, replace(settings, steps=720), 4, 5, 0, "refined")
-    x = trajectories.x
-    c3 = x[..., 2:3] / x[..., 1:4].sum(-1, keepdims=True)
-    y = np.concatenate([c3, x[..., 5:6]], axis=-1) + np.random.default_rng(1).normal(0, [1e-4, 0.2], x.shape[:2] + (2,))
-    obs = Observations(y=y, u=trajectories.u, channels=("c3", "x6"), noise=np.array([1e-4, 0.2]), dt=10.0)
     width = np.array([0.01])
     alone = refine_coefficients(model, term, constant, np.zeros(1), width, obs.subset(slice(1, None)))
     obs.u[0, 100, 1] = np.nan  # no line current logged: the model's rates are NaN from there
@@ -739,16 +745,8 @@ def test_of_terms_that_each_cover_zero_the_one_that_fits_best_alone_stays(monkey
     from costa.discover.sparse.filter import search
     from costa.discover.sparse.filter.search import _best_alone, _covering_zero
 
-    model = true_model()
-    (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
+    model, term, obs = _alf3_lost(cells=3, stream="alone")
     features = [f for name in ("1", "u4") for f in term.features(False) if f.name == name]
-    truth = term.corrected(model, features[:1], [-0.003])
-    settings = SimulationSettings.from_config(load_config()["simulation"])
-    trajectories, _ = simulate_set(truth, replace(settings, steps=720), 3, 5, 0, "alone")
-    x = trajectories.x
-    c3 = x[..., 2:3] / x[..., 1:4].sum(-1, keepdims=True)
-    y = np.concatenate([c3, x[..., 5:6]], axis=-1) + np.random.default_rng(1).normal(0, [1e-4, 0.2], x.shape[:2] + (2,))
-    obs = Observations(y=y, u=trajectories.u, channels=("c3", "x6"), noise=np.array([1e-4, 0.2]), dt=10.0)
     coefficients = np.array([-0.001, 0.5])
     samples = coefficients + np.random.default_rng(2).standard_normal((400, 2)) * [0.001, 0.4]
     assert _covering_zero(samples) == [0, 1]
