@@ -586,7 +586,7 @@ def test_refined_coefficients_recover_a_hidden_flow_whose_terms_span_decades(def
     width = np.array([3.4e-3, 0.096, 0.093, 4e-4, 18.2, 2.9, 5.1e-3, 5.6e-9, 5.2e-3, 4.8e-3])
     refined = refine_coefficients(model, term, [library[n] for n in names], start, width, obs)
     assert refined is not None
-    theta, covariance = refined
+    theta, covariance = refined.coefficients, refined.covariance
     truth = np.zeros(len(names))
     truth[[names.index("u1"), names.index("u1*superheat")]] = -0.3, 0.015
     std = np.sqrt(np.diag(covariance))
