@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import snakemake
+from conftest import REPOSITORY, snakemake
 
 from costa.config import ConfigError, load_config
 from costa.data import write_trajectories
@@ -163,8 +163,10 @@ def test_a_line_of_your_records_screens_each_file_and_simulates_nothing(default_
 def test_a_line_of_historian_exports_imports_each_pot_then_screens_it(tmp_path):
     """``line: historian:``: each pot's export is imported by its own job (its tag map its own or the
     line's) and then screened; a pot without any tag map is named in one line."""
-    for name in ("a.csv", "b.csv", "tags.yaml", "b_tags.yaml", "b_lab.csv"):
+    for name in ("a.csv", "b.csv", "b_lab.csv"):
         (tmp_path / name).write_text("")
+    for name in ("tags.yaml", "b_tags.yaml"):
+        (tmp_path / name).write_text((REPOSITORY / "examples/pot-line/tags.yaml").read_text())
     pots = "{pot12: {export: a.csv}, pot13: {export: b.csv, tags: b_tags.yaml, lab: b_lab.csv}}"
     (tmp_path / "mine.yaml").write_text(
         "output: {results: results/mine, report: results/mine/report}\n"
@@ -183,6 +185,20 @@ def test_a_line_of_historian_exports_imports_each_pot_then_screens_it(tmp_path):
     assert line.historian_files("p1") == {"tags": "t.yaml", "export": "a.csv"}
     with pytest.raises(ConfigError, match=r"^line.historian.pots.p1: no tag map"):
         load_config(overrides={"line": {**section, "historian": {"pots": {"p1": {"export": "a.csv"}}}}})
+    (tmp_path / "b.csv").unlink()  # checked before anything is scheduled: the file, then the tag map
+    result = snakemake(
+        tmp_path, "results/mine/line/mine/line.csv", "--configfile", "mine.yaml", "--dry-run", check=False
+    )
+    assert (
+        result.returncode != 0
+        and "invalid data at 'line.historian.pots.pot13.export': b.csv does not exist" in result.stderr
+    )
+    (tmp_path / "b.csv").write_text("")
+    (tmp_path / "b_tags.yaml").write_text("signals: {V: {to: U_pot, unit: parsec}}\n")
+    result = snakemake(
+        tmp_path, "results/mine/line/mine/line.csv", "--configfile", "mine.yaml", "--dry-run", check=False
+    )
+    assert result.returncode != 0 and "invalid data at 'line.historian.pots.pot13.tags': b_tags.yaml" in result.stderr
 
 
 @pytest.mark.integration  # about two minutes: two 4-day pots simulated, exported, imported and screened

@@ -205,7 +205,9 @@ def _made_by_the_import(config: Mapping[str, Any], path: str) -> bool:
 
 def check_historian(config: Mapping[str, Any]) -> None:
     """Import the historian export ``historian`` names (if any) as the workflow will, so that a bad
-    export stops a run in one line naming the file, the tag and the row before anything is scheduled."""
+    export stops a run in one line naming the file, the tag and the row before anything is scheduled;
+    for a line's pots (:func:`_check_line_historian`) their files found and tag maps read."""
+    _check_line_historian(config)
     if not config.get("historian"):
         return
     from .data import TrajectoryDataError
@@ -250,3 +252,26 @@ def load_config(*paths: str | Path, overrides: Mapping[str, Any] | None = None) 
     validate(config, str(SCHEMA), set_default=True)
     check_consistency(config)
     return config
+
+
+def _check_line_historian(config: Mapping[str, Any]) -> None:
+    """Each file a line's historian pots name found and each tag map read and checked, before anything
+    is scheduled (each export is imported by its pot's own job, whose error names the pot)."""
+    h = (config.get("line") or {}).get("historian")
+    if not h:
+        return
+    from .data import TrajectoryDataError
+    from .historian import read_tag_map
+
+    checked: set[str] = set()
+    for pot, given in h["pots"].items():
+        files, key = {"tags": h["tags"], **given}, f"line.historian.pots.{pot}"
+        for name, path in files.items():
+            if path and not Path(path).is_file():
+                raise TrajectoryDataError(f"invalid data at '{key}.{name}': {path} does not exist")
+        if files["tags"] not in checked:
+            try:
+                read_tag_map(files["tags"])
+            except TrajectoryDataError as error:
+                raise TrajectoryDataError(f"invalid data at '{key}.tags': {error}") from None
+            checked.add(files["tags"])
