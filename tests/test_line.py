@@ -108,6 +108,25 @@ def test_a_simulated_line_names_its_pots_and_their_effects_and_judges_its_groups
     assert "- input:u4 (group A, found): pot01, pot03\n- no group's correction: pot02\n" in page
 
 
+def test_the_page_says_which_correction_explains_which_pots_and_its_equivalents():
+    """A group not identifiable lists its correction with the explanations as good; the flagged pots
+    that no correction brings within noise are listed apart."""
+    line = Line.from_config({"name": "l", "starting_model": "full", "held_out_fraction": 0.34, "records": {
+        "pot01": "a", "pot02": "b", "pot03": "c"}})  # fmt: skip
+    screens = {"pot01": _screen("input:u4", x5=0.4), "pot02": _screen("input:u4", x5=0.3), "pot03": _screen(x5=-0.5)}
+    groups = [{"group": "A", "hypothesis": "input:u4", "pots": ["pot01", "pot02"]}]
+    findings = {"A": {"outcome": "not identifiable", "named": [], "rounds": [
+        {"correction": {"hypothesis": "input:u4", "closed_form": "-0.1"}, "equivalent": [{"hypothesis": "term:metal_mass"}]}]}}  # fmt: skip
+    checks = {
+        "A": _check({"pot01": (True, False), "pot02": (True, False), "pot03": (True, True)}, members=("pot01", "pot02"))
+    }
+    page = line_page(line, line_table(screens, {}), groups, findings, checks)
+    assert (
+        "- input:u4, or term:metal_mass (group A, not identifiable): pot01, pot02\n- no group's correction: pot03\n"
+        in page
+    )
+
+
 def test_a_lines_config_is_checked_across_keys(default_config):
     base = {"name": "l", "simulated": {"pots": 4, "sensors": "pot_line", "groups": []}}
     for change, message in (

@@ -100,11 +100,12 @@ def _explanations(
     words, explained = ["What explains the line's pots, each checked alone:"], set()
     for g in groups:
         f = findings.get(g["group"], {})
-        correction = next((r["correction"] for r in f.get("rounds", []) if r.get("correction")), None)
-        if correction and (pots_ := _explained_by(g, checks.get(g["group"]))):
+        applied = next((r for r in f.get("rounds", []) if r.get("correction")), None)
+        if applied and (pots_ := _explained_by(g, checks.get(g["group"]))):
             explained.update(pots_)
-            name = ", ".join(f.get("named", [])) or correction.get("hypothesis", "its correction")
-            words.append(f"- {name} (group {g['group']}, {f['outcome']}): {', '.join(pots_)}")
+            name = ", ".join(f.get("named", [])) or applied["correction"].get("hypothesis", "its correction")
+            rivals = "".join(f", or {e['hypothesis']}" for e in applied.get("equivalent", []))
+            words.append(f"- {name}{rivals} (group {g['group']}, {f['outcome']}): {', '.join(pots_)}")
     left = [pot for pot in pots.index if pots.loc[pot, "signature"] and pot not in explained]
     return words + [f"- no group's correction: {', '.join(left) or 'none'}"]
 
