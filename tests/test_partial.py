@@ -735,7 +735,6 @@ def test_the_refinement_combines_the_trajectories_whose_filter_holds():
     assert refined is not None and alone is not None
     np.testing.assert_allclose(refined.coefficients, alone.coefficients, rtol=1e-9)
     assert abs(refined.coefficients[0] + 0.003) < 4 * np.sqrt(refined.covariance[0, 0])
-    assert (refined.held, alone.held) == (3, 3)
 
 
 def test_of_terms_that_each_cover_zero_the_one_that_fits_best_alone_stays(monkeypatch):

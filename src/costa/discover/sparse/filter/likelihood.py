@@ -232,8 +232,6 @@ class Refined(NamedTuple):
 
     coefficients: np.ndarray  # (P,)
     covariance: np.ndarray  # (P, P)
-    held: int  # trajectories whose filter held in the last pass
-    log_likelihood: float  # of the measured channels on those, in the last pass (the coefficients as states)
 
 
 def refine_coefficients(
@@ -285,5 +283,4 @@ def refine_coefficients(
         if np.any(np.linalg.eigvalsh(0.5 * (total + total.T)) <= 0):
             return None
         theta = width * np.linalg.solve(total, np.einsum("nij,nj->i", precisions, means) - (m - 1) * theta / width)
-    likelihood = float(np.sum(result.log_likelihood[held]))
-    return Refined(theta, np.linalg.inv(total) * np.outer(width, width), m, likelihood)
+    return Refined(theta, np.linalg.inv(total) * np.outer(width, width))
