@@ -257,15 +257,15 @@ def load_config(*paths: str | Path, overrides: Mapping[str, Any] | None = None) 
 def _check_line_historian(config: Mapping[str, Any]) -> None:
     """Each file a line's historian pots name found and each tag map read and checked, before anything
     is scheduled (each export is imported by its pot's own job, whose error names the pot)."""
-    h = (config.get("line") or {}).get("historian")
-    if not h:
+    if not (config.get("line") or {}).get("historian"):
         return
     from .data import TrajectoryDataError
     from .historian import read_tag_map
+    from .line.pots import Line
 
-    checked: set[str] = set()
-    for pot, given in h["pots"].items():
-        files, key = {"tags": h["tags"], **given}, f"line.historian.pots.{pot}"
+    line, checked = Line.from_config(config["line"]), set()
+    for pot in line.pots:
+        files, key = line.historian_files(pot), f"line.historian.pots.{pot}"
         for name, path in files.items():
             if path and not Path(path).is_file():
                 raise TrajectoryDataError(f"invalid data at '{key}.{name}': {path} does not exist")
