@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
 
 from costa.discover.core.hypotheses import candidate_hypotheses
-from costa.discover.core.naming import decide, same_physics
+from costa.discover.core.naming import decide, same_physics, settled
+from costa.discover.core.outcome import Decision, Round
 from costa.physics import operating_points
 
 
@@ -80,3 +82,48 @@ def test_closed_forms_of_one_balances_missing_heat_flow_are_not_rivals(model):
     assert {id(chosen), *map(id, others)} == {id(freezing), id(proportional)} and rivals == []
     chosen, others, rivals = decide([freezing, to_wall], (), model, x, u)
     assert rivals == [c for c in (freezing, to_wall) if c is not chosen]
+
+
+@dataclass(kw_only=True)
+class _Round(Round):
+    """A round that flagged ``shown`` (channels or equations)."""
+
+    shown: tuple[str, ...] = ()
+
+    @property
+    def flagged(self) -> list[str]:
+        return list(self.shown)
+
+
+def test_a_name_a_later_round_does_not_confirm_is_withdrawn(model):
+    """Round 1 names the metal production for a disagreement in x5; round 2, with the richer library,
+    chooses another hypothesis for what it left in x5.  A flow from the cryolite (other physics), or a
+    flow into the metal (alike) that a flow from the ledge fits as well: the data do not single out
+    the metal production, so round 1 becomes not identifiable and round 2 stands.  A later round that
+    refines the name (even where it cannot tell it from others), names what acts alike, or explains
+    another equation leaves it named."""
+    hypotheses = {h.key: SimpleNamespace(hypothesis=h) for h in candidate_hypotheses(model)}  # chosen and equivalents
+
+    def round_(flagged, chosen, equivalent=(), decision=Decision.NAMED):
+        return _Round(
+            model=model, tests=[], ranking=[], chosen=hypotheses[chosen], equivalent=[hypotheses[k] for k in equivalent],
+            verdict="v", decision=decision, shown=flagged,
+        )  # fmt: skip
+
+    undecided = Decision.NOT_IDENTIFIABLE
+    first = round_(("x5",), "part:metal_production")
+    later = round_(("x5",), "transfer:cryolite_mass->metal_mass")
+    withdrawn, kept = settled([first, later])
+    assert withdrawn.named is None and withdrawn.decision is undecided and kept is later
+    assert "transfer:cryolite_mass->metal_mass" in withdrawn.verdict
+    alike_undecided = round_(("x5",), "term:metal_mass", ["transfer:ledge_mass->metal_mass"], undecided)
+    assert settled([first, alike_undecided])[0].named is None
+    assert settled([first, round_(("x5",), "term:metal_mass")])[0] is first
+    refined = round_(("x5",), "part:metal_production", ["transfer:ledge_mass->metal_mass"], undecided)
+    assert settled([first, refined])[0] is first
+    assert settled([first, round_(("x8",), "term:wall_energy")])[0] is first
+    freezing = round_(("x6",), "part:bath_freezing_heat")
+    assert settled([freezing, round_(("x6", "x8"), "term:bath_energy")])[0] is freezing
+    unexplained = round_(("x5",), "input:u4", decision=Decision.UNEXPLAINED)
+    unexplained.chosen = None
+    assert settled([first, unexplained])[0] is first

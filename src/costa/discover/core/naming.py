@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -10,12 +11,12 @@ from ...observe import SENSED_PART, observe
 from ...physics import BALANCES, PART_ORDER, PROPERTIES, CellModel
 from ...variables import INPUTS
 from .hypotheses import PREFERENCE, Hypothesis, same_sensitivity
-from .outcome import Decision
+from .outcome import Decision, Round
 from .settings import DiscoverySettings
 
 __all__ = [
     "alike", "balance_moved", "causes_through", "conclude", "decide", "fit_outcome", "naming_order", "removal",
-    "same_physics", "small_form_error",
+    "same_physics", "settled", "small_form_error",
 ]  # fmt: skip
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
@@ -79,6 +80,39 @@ def conclude(*, left: bool, tolerated: bool, undecided: bool) -> Decision:
     if undecided:
         return Decision.NOT_IDENTIFIABLE
     return Decision.FORM_INCOMPLETE if left else Decision.NAMED
+
+
+def settled(rounds: Sequence[Round]) -> list[Round]:
+    """The rounds with every name a later round does not confirm withdrawn, the last rule of every route.
+
+    A named hypothesis gets the first claim on what its correction leaves (:func:`naming_order`; on full
+    states by a margin, ``new_mechanism_margin``).  A later round that corrects a channel (or equation)
+    the named round flagged too, yet chooses another hypothesis, must confirm the name's physics: its
+    choice acts alike (:func:`.hypotheses.same_sensitivity`: a heat flow into the bath and the bath's heat
+    of freezing) and it tells its choice from the rest (identifiable).  Otherwise the richer search
+    explains the same disagreement by other physics, or cannot tell, and the data do not single out
+    the earlier name (a metal flow fitted first as the metal production, then, with products of
+    states, as well by a flow from the cryolite or the ledge): that round becomes not identifiable, its
+    correction still applied (the corrections and the later rounds are unchanged).  ``rounds``: rounds
+    whose ``flagged`` lists the channels or equations they flagged."""
+    out = list(rounds)
+    for i, r in enumerate(out):
+        if r.named is None:
+            continue
+        for later in out[i + 1 :]:
+            shared = [c for c in later.flagged if c in r.flagged]
+            if later.chosen is None or not shared or later.chosen.hypothesis.key == r.named.key:
+                continue
+            if later.identifiable and same_sensitivity(r.named, later.chosen.hypothesis, later.model):
+                continue
+            out[i] = dataclasses.replace(
+                r, decision=Decision.NOT_IDENTIFIABLE,
+                verdict=f"{r.verdict}; not named: a later round explains what it left in {', '.join(shared)} by "
+                f"{later.chosen.hypothesis.key}{'' if later.identifiable else ' and its rivals'}, so the data "
+                "do not single it out",
+            )  # fmt: skip
+            break
+    return out
 
 
 def naming_order(items: Sequence, named: Sequence[str], reads, terms=lambda item: 0) -> list:
