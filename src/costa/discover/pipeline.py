@@ -21,6 +21,7 @@ from ..metrics import EvaluationSettings, windows_from_fractions
 from ..physics import CellModel, model_from_config
 from ..variables import INPUTS
 from .core.library import constant_inputs
+from .core.naming import settled
 from .core.outcome import Outcome
 from .core.settings import DiscoverySettings
 from .full_state.pipeline import run_full_state_discovery
@@ -195,4 +196,7 @@ def run_discovery(
             source=source,
             floor_rng=floor_rng,
         )
-    return replace(result, constant_inputs=constant_inputs(train[list(INPUTS)].to_numpy()))
+    # every route's names, settled once its rounds have run (:func:`.core.naming.settled`)
+    return replace(
+        result, rounds=settled(result.rounds), constant_inputs=constant_inputs(train[list(INPUTS)].to_numpy())
+    )

@@ -12,7 +12,6 @@ import pandas as pd
 from ...data import TrajectoryDataError, arrays, time_step
 from ...metrics import EvaluationSettings, state_scale
 from ...physics import CellModel
-from ..core.naming import settled
 from ..core.noise import estimate_noise
 from ..core.outcome import Outcome, compared_models
 from ..core.settings import DiscoverySettings
@@ -68,7 +67,6 @@ def run_full_state_discovery(
     data = _data(train, held_out, source, settings.window)
     started = time.perf_counter()
     rounds, noise = discover(start, data.x, data.u, data.dt, settings)
-    rounds = settled(rounds)
     seconds = time.perf_counter() - started
     models = compared_models(rounds, start)
     corrected = models.get("corrected model", start)

@@ -22,7 +22,6 @@ import pandas as pd
 from ...data import TrajectoryDataError, measured_trajectories
 from ...metrics import EvaluationSettings
 from ...physics import CellModel
-from ..core.naming import settled
 from ..core.outcome import Outcome, compared_models
 from ..core.settings import DiscoverySettings
 from .filter.search import discover_sparse, fit_share, screen_round
@@ -182,7 +181,6 @@ def run_sparse_discovery(
         screen, searched = read_screen(first_round[0], start)
         obs = replace(obs, start=searched)
         rounds = discover_sparse(start, obs, settings, (screen, read_fits(first_round[1], start, obs)))
-    rounds = settled(rounds)
     seconds = time.perf_counter() - started
     models = compared_models(rounds, start)
     corrected = models.get("corrected model", start)
