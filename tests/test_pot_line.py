@@ -96,3 +96,44 @@ def test_a_correct_model_passes_every_channel_test_on_a_pot_lines_daily_samples(
     assert not [t for t in tests if t.flagged], tests
     assert obs.noise[obs.channels.index("U_pot")] == pytest.approx(declared["U_pot"], rel=0.05)
     assert 0.8 < next(t.chi2_per_dof for t in tests if t.channel == "U_pot") < 1.25, tests
+
+
+def _operation_with_anodes(default_config, model, every_s: float, tau_s: float, cells: int = 2):
+    from costa.pot_line import PotLine, PotLineOperation
+
+    line = dataclasses.replace(
+        PotLine.from_config(default_config["simulation"]["pot_line"]), anode_change_s=every_s, anode_heat_tau_s=tau_s
+    )
+    dt = default_config["simulation"]["dt_s"]
+    return line, dt, PotLineOperation(line, model, dt, np.zeros((cells, 100_000)), np.zeros(cells))
+
+
+def test_a_new_anode_takes_its_own_heat_from_the_bath(default_config, model):
+    """Each new anode takes anode_kg x anode_heat_j_per_kg from the bath, no more and no less: two
+    changes (days 1 and 2, a heat uptake of 1 h) over 3 days take twice one anode's heat."""
+    line, dt, operation = _operation_with_anodes(default_config, model, every_s=DAY_S, tau_s=3600.0)
+    x = np.tile([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0, 580.0], (2, 1))
+    taken = 0.0
+    for k in range(int(3 * DAY_S / dt)):
+        operation.inputs(x, k)
+        taken = taken + operation.bath_heat_taken() * dt
+    np.testing.assert_allclose(taken, 2 * line.anode_kg * line.anode_heat_j_per_kg, rtol=1e-9)
+
+
+def test_the_heat_an_anode_takes_cools_the_bath_by_its_heat_capacity(default_config, model):
+    """The step after a change, the bath is cooler than the undisturbed cell's by Q dt / (m c_p,bath):
+    m the bath's mass x2 + x3 + x4, c_p,bath 1767 J/(kg K)."""
+    from costa.simulate import simulate
+
+    line, dt, operation = _operation_with_anodes(default_config, model, every_s=60.0, tau_s=3600.0)
+    settings = dataclasses.replace(SimulationSettings.from_config(default_config["simulation"]), steps=8)
+    x0 = np.tile([3000.0, 500.0, 1800.0, 14000.0, 10000.0, 970.0, 820.0, 580.0], (2, 1))
+    disturbed = simulate(model, x0, operation, settings)
+    _, _, undisturbed = _operation_with_anodes(default_config, model, every_s=0.0, tau_s=3600.0)
+    plain = simulate(model, x0, undisturbed, settings)
+    heat = line.anode_kg * line.anode_heat_j_per_kg * -np.expm1(-dt / line.anode_heat_tau_s) / dt  # W, the first step
+    change = int(60.0 / dt)  # the step the first anode is set
+    bath = disturbed.x[:, change, 1:4].sum(axis=1)
+    assert np.all(disturbed.x[:, : change + 1] == plain.x[:, : change + 1])
+    cooler = plain.x[:, change + 1, 5] - disturbed.x[:, change + 1, 5]
+    np.testing.assert_allclose(cooler, heat * dt / (bath * 1766.7844522968198), rtol=1e-3)

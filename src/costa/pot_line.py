@@ -14,7 +14,11 @@ holds its current and acts on a few measurements (``simulation.pot_line`` in the
   AlF3 fraction that the last daily bath sample lies below ``alf3_setpoint`` (0 .. ``alf3_max_kg``), in one
   step;
 - **tapping** (u4): one tap a day, half a day after the bath sample: the metal above
-  ``metal_setpoint_kg`` at its start, siphoned over ``tap_s``.
+  ``metal_setpoint_kg`` at its start, siphoned over ``tap_s``;
+- **anode changes**, where ``anode_change_s`` > 0: every ``anode_change_s`` from the record's start, one
+  new anode of ``anode_kg`` carbon set cold into the bath.  It takes ``anode_heat_j_per_kg`` from the
+  bath as it heats, at a rate that decays with ``anode_heat_tau_s`` (:meth:`PotLineOperation.bath_heat_taken`):
+  a disturbance the model does not describe (it has no input for it), as on a real line.
 
 Doses and taps are amounts: one step carries amount / dt [kg/s], as the events table turns them into
 rates (:mod:`costa.events`).  Each cell's shift, sample and tap times start at a random phase, and
@@ -64,6 +68,10 @@ class PotLine:
     alf3_max_kg: float
     metal_setpoint_kg: float
     tap_s: float
+    anode_change_s: float  # 0: none
+    anode_kg: float
+    anode_heat_j_per_kg: float
+    anode_heat_tau_s: float
     #: the range of a cell's first alumina fraction [%]: an operated cell is not started in the
     #: starved bath (below 2.3 %) where the model's voltage swings by volts
     c2_percent: tuple[int, int]
@@ -101,6 +109,7 @@ class PotLineOperation:
         self.last_beam = np.full(n, -np.inf)
         self.alf3_sample = np.full(n, line.alf3_setpoint)
         self.tap = np.zeros(n)  # tapping rate of the running tap [kg/s]
+        self.anode_heat = np.zeros(n)  # heat the new anodes take from the bath this step [W]
 
     def inputs(self, x: np.ndarray, k: int) -> np.ndarray:
         """u_k (n, 5) for the states x_k (n, 8); advances the controllers by one step."""
@@ -127,7 +136,23 @@ class PotLineOperation:
         self.tap = np.where(tap_starts, np.maximum(x[:, 4] - line.metal_setpoint_kg, 0.0) / line.tap_s, self.tap)
         self.tap = np.where((clock + DAY_S / 2) % DAY_S >= line.tap_s, 0.0, self.tap)
         u[:, 3] = self.tap
+        self._change_anodes(t)
         return u
+
+    def bath_heat_taken(self) -> np.ndarray:
+        """The heat [W] (n,) the anodes set since the start take from each bath during the step just set."""
+        return self.anode_heat
+
+    def _change_anodes(self, t: float) -> None:
+        """Decay the new anodes' heat uptake over one step; set a new anode where one is due (t > 0)."""
+        line = self.line
+        if line.anode_change_s <= 0:
+            return
+        self.anode_heat *= np.exp(-self.dt / line.anode_heat_tau_s)
+        if t > 0 and t % line.anode_change_s < self.dt:  # the steps' uptake sums to the anode's heat
+            self.anode_heat -= (
+                line.anode_kg * line.anode_heat_j_per_kg * np.expm1(-self.dt / line.anode_heat_tau_s) / self.dt
+            )
 
     def _track(self, voltage: np.ndarray, clock: np.ndarray) -> None:
         """Switch between under- and overfeeding, and move the beam while overfeeding."""

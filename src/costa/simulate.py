@@ -203,9 +203,12 @@ def draw_excitation(rng: np.random.Generator, settings: SimulationSettings) -> d
 
 # ------------------------------------------------------------- stepping
 class Operator(Protocol):
-    """What sets a cell's inputs: u_k (n, 5) from the states x_k (n, 8) at step k."""
+    """What sets a cell's inputs: u_k (n, 5) from the states x_k (n, 8) at step k, and the heat [W] that
+    something the model does not describe takes from each bath over that step (0: nothing)."""
 
     def inputs(self, x: np.ndarray, k: int) -> np.ndarray: ...
+
+    def bath_heat_taken(self) -> np.ndarray | float: ...
 
 
 @dataclass(frozen=True)
@@ -217,6 +220,9 @@ class Excited:
 
     def inputs(self, x: np.ndarray, k: int) -> np.ndarray:
         return _inputs(x, self.excitation, k, self.settings)
+
+    def bath_heat_taken(self) -> float:
+        return 0.0
 
 
 def _inputs(x: np.ndarray, excitation: Mapping[str, np.ndarray], k: int, s: SimulationSettings) -> np.ndarray:
@@ -252,6 +258,9 @@ def simulate(
         u[:, 0] = operator.inputs(x0, 0)
         for k in range(1, steps):
             x[:, k] = step(x[:, k - 1], u[:, k - 1])
+            taken = operator.bath_heat_taken()
+            if np.any(taken):  # the heat leaves the bath after the model's step (operator splitting)
+                x[:, k, 5] -= taken * settings.dt * model.state_rate_per_flow(x[:, k - 1], u[:, k - 1])[:, 5]
             u[:, k] = operator.inputs(x[:, k], k)
     return Trajectories(x, u)
 
