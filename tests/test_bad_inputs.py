@@ -150,8 +150,8 @@ EVENTS = [
      "events.csv: column 'time_s' at row 0: the tap from 3990 s to 4590 s lies outside trajectory 0 of"),
     ("events out of time order", "trajectory,time_s,kind,amount_kg\n0,600,alumina_dose,1.8\n0,300,alumina_dose,1.8\n",
      "events.csv: column 'time_s' must not decrease within a trajectory; row 1 goes back from 600 to 300"),
-    ("unknown event kind", "trajectory,time_s,kind,amount_kg\n0,60,alumina_dose,1.8\n1,60,anode_change,900\n",
-     "events.csv: column 'kind' has the unknown kind 'anode_change' at row 1; known: tap, alf3_addition, alumina_dose"),
+    ("unknown event kind", "trajectory,time_s,kind,amount_kg\n0,60,alumina_dose,1.8\n1,60,crust_break,900\n",
+     "events.csv: column 'kind' has the unknown kind 'crust_break' at row 1; known: tap, alf3_addition, alumina_dose, anode_change"),
     ("a weighed dose", "trajectory,time_s,kind,amount_kg,weighed_kg\n0,60,alumina_dose,1.8,\n0,90,alumina_dose,1.8,1.7\n",
      "events.csv: column 'weighed_kg' has a value at row 1, a 'alumina_dose': only taps are weighed"),
 ]  # fmt: skip

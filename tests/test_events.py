@@ -46,6 +46,22 @@ def test_an_instant_dose_falls_into_its_step_and_adds_to_the_logged_feed(tmp_pat
     assert (np.delete(u1, 123, axis=1) == 0.5).all()
 
 
+def test_an_anode_change_feeds_nothing_and_is_said_not_modelled(tmp_path):
+    """A new anode moves no input (the model has none for its heat); the findings' note counts it."""
+    from costa.events import not_modelled, read_events
+
+    rows = [
+        (0, 600.0, "anode_change", 900.0, 0),
+        (1, 60.0, "alumina_dose", 1.8, 0),
+        (1, 900.0, "anode_change", 900.0, 0),
+    ]
+    table = _load(tmp_path, rows)
+    events = read_events(tmp_path / "events.csv")
+    assert not_modelled(events).startswith("the events hold 2 anode changes, which the model does not describe")
+    assert not_modelled(events.iloc[1:2]) == ""
+    pd.testing.assert_frame_equal(table, _load(tmp_path, rows[1:2]))
+
+
 def test_the_rates_integrate_to_the_amounts_over_the_grid(tmp_path):
     """Conservation, event by event summed per trajectory and kind: sum of rate x dt = sum of amounts."""
     rng = np.random.default_rng(7)
@@ -82,8 +98,10 @@ def test_a_days_tap_takes_out_the_metal_faraday_says_the_pot_made(tmp_path):
 BAD = [
     ("out of time order", [(0, 600.0, "alumina_dose", 1.8, 0), (0, 300.0, "alumina_dose", 1.8, 0)],
      "events.csv: column 'time_s' must not decrease within a trajectory; row 1 goes back from 600 to 300"),
-    ("unknown kind", [(0, 60.0, "alumina_dose", 1.8, 0), (0, 90.0, "anode_change", 900.0, 0)],
-     "events.csv: column 'kind' has the unknown kind 'anode_change' at row 1; known: tap, alf3_addition, alumina_dose"),
+    ("unknown kind", [(0, 60.0, "alumina_dose", 1.8, 0), (0, 90.0, "crust_break", 900.0, 0)],
+     "events.csv: column 'kind' has the unknown kind 'crust_break' at row 1; known: tap, alf3_addition, alumina_dose, anode_change"),
+    ("an anode of 9 kg (a t logged as kg)", [(0, 90.0, "anode_change", 0.9, 0)],
+     "events.csv: column 'amount_kg' must lie in 300-2000 kg for kind 'anode_change', row 0 has 0.9"),
     ("negative amount", [(0, 60.0, "alf3_addition", 25.0, 0), (1, 60.0, "alf3_addition", -25.0, 0)],
      "events.csv: column 'amount_kg' must be positive, row 1 has -25"),
     ("tap after the record", [(1, 3000.0, "tap", 1100.0, 900.0)],

@@ -1,6 +1,7 @@
 """Make the pot-line example's historian files: one simulated pot, exported as a historian writes it.
 
     PYTHONPATH=src python examples/pot-line/make_export.py [--days 10] [--case alumina_feeder] [--folder DIR]
+        [--anode-change-hours H]
 
 One pot run as a pot line runs it (the ``pot_line`` operation: current held, alumina fed on the
 voltage), with a hidden effect (default: the alumina feeder delivers 92 % of its command; or
@@ -11,7 +12,9 @@ voltage), with a hidden effect (default: the alumina feeder delivers 92 % of its
   anode effect (30 V) on day 3, ten values sent twice, a few of bad quality and a setpoint tag;
 - ``lab.csv``: the bath temperature, the excess AlF3 (%) and the metal height (cm) once a day,
   reported 4 h after sampling;
-- ``events.csv``: the feeder's shots, the AlF3 additions and the taps (t) as the controllers made them.
+- ``events.csv``: the feeder's shots, the AlF3 additions and the taps (t) as the controllers made them,
+  and, with ``--anode-change-hours``, a new anode (900 kg of carbon, set cold) every H hours from the
+  start (``simulation.pot_line.anode_change_s``: the heat it takes from the bath is simulated, not modelled).
 """
 
 import argparse
@@ -49,9 +52,11 @@ def _events(u: np.ndarray, dt: float, column: int, tag: str, per_t: float) -> pd
     return pd.DataFrame({"seconds": starts * dt, "tag": tag, "amount": amount, "duration_s": (ends - starts + 1) * dt})
 
 
-def main(days: float, case: str, folder: Path) -> None:
-    config = load_config(DEFAULT_CONFIG, overrides={"discovery": {"sensor_sets": {"pot_line": {
-        "hours": 24.0 * days, "trajectories": 1, "held_out_trajectories": 1}}}})  # fmt: skip
+def main(days: float, case: str, folder: Path, anode_change_hours: float) -> None:
+    config = load_config(DEFAULT_CONFIG, overrides={
+        "simulation": {"pot_line": {"anode_change_s": 3600.0 * anode_change_hours}},
+        "discovery": {"sensor_sets": {"pot_line": {"hours": 24.0 * days, "trajectories": 1, "held_out_trajectories": 1}}},
+    })  # fmt: skip
     train = case_table(config, find_case(case), "pot_line", "train")
     u, dt = train[["u1", "u2", "u3", "u4", "u5"]].to_numpy(), config["simulation"]["dt_s"]
     rng = seeds.numpy_generator(config["seed"], 0, "examples/pot-line/export")
@@ -77,8 +82,11 @@ def main(days: float, case: str, folder: Path) -> None:
         stamps = START + pd.to_timedelta(seconds[sampled], unit="s")
         lab.append(pd.DataFrame({"sample_time": _local(stamps).str[:-7], "report_time": _local(stamps + pd.Timedelta(hours=4)).str[:-7], "tag": tag,
                                  "value": (train[channel][sampled] * scale).round(4).to_numpy()}))  # fmt: skip
+    changes = np.arange(1, days * 24 / anode_change_hours) * anode_change_hours * 3600 if anode_change_hours else []
+    anodes = pd.DataFrame({"seconds": changes, "tag": "ANODE_SET", "amount": config["simulation"]["pot_line"]["anode_kg"],
+                           "duration_s": 0.0})  # fmt: skip
     events = pd.concat([_events(u, dt, 0, "FEEDER_SHOT", 1.0), _events(u, dt, 2, "ALF3_ADD", 1.0),
-                        _events(u, dt, 3, "TAP", 1000.0)]).sort_values("seconds", kind="stable")  # fmt: skip
+                        _events(u, dt, 3, "TAP", 1000.0), anodes]).sort_values("seconds", kind="stable")  # fmt: skip
     events.insert(0, "timestamp", _local(START + pd.to_timedelta(events.pop("seconds"), unit="s")).str[:-7].to_numpy())
     folder.mkdir(parents=True, exist_ok=True)
     export.to_csv(folder / "export.csv", index=False)
@@ -92,4 +100,5 @@ if __name__ == "__main__":
     parser.add_argument("--days", type=float, default=10.0)
     parser.add_argument("--case", default="alumina_feeder")
     parser.add_argument("--folder", type=Path, default=HERE / "data")
+    parser.add_argument("--anode-change-hours", type=float, default=0.0, help="a new anode every H hours (0: none)")
     main(**vars(parser.parse_args()))

@@ -24,9 +24,10 @@ result = run_discovery(
     config, train, held_out, start, case, snakemake.input.train, snakemake.params.declared_noise, first_round
 )
 meta = dict(snakemake.params.meta)
-how = read_provenance(snakemake.input.held_out).get("how")  # your data: how they were split
-if how:
-    meta["data"] += f"; {how}"
+provenance = read_provenance(snakemake.input.held_out)
+for note in (provenance.get("how"), provenance.get("not_modelled")):  # your data: how split, what is not modelled
+    if note:
+        meta["data"] += f"; {note}"
 found = findings(result, case, start, meta, channels, constants)
 with open(snakemake.output.findings, "w") as handle:
     json.dump(found, handle, indent=1)

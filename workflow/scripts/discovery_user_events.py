@@ -1,8 +1,9 @@
-"""Add the rates of your events (taps, AlF3 additions, alumina doses) to your record's inputs."""
+"""Add the rates of your events (taps, AlF3 additions, alumina doses) to your record's inputs; note what they
+hold that the model does not describe (anode changes)."""
 
 from costa import runtime
 from costa.data import write_trajectories
-from costa.events import load_trajectories_with_events, read_events
+from costa.events import load_trajectories_with_events, not_modelled, read_events
 
 log = runtime.configure(snakemake)
 table = load_trajectories_with_events(snakemake.input.record, snakemake.input.events, snakemake.params.unlogged)
@@ -13,6 +14,8 @@ log.info(
     ", ".join(f"{n} {kind}" for kind, n in events["kind"].value_counts().sort_index().items()),
     snakemake.input.record,
 )
-write_trajectories(
-    table, snakemake.output.measurements, {"source": snakemake.input.record, "events": snakemake.input.events}
-)
+unmodelled = not_modelled(events)
+if unmodelled:
+    log.warning("%s: %s", snakemake.input.events, unmodelled)
+provenance = {"source": snakemake.input.record, "events": snakemake.input.events, "not_modelled": unmodelled}
+write_trajectories(table, snakemake.output.measurements, provenance)

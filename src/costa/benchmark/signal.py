@@ -39,6 +39,9 @@ class Replay:
     def inputs(self, x: np.ndarray, k: int) -> np.ndarray:
         return self.u[:, k]
 
+    def bath_heat_taken(self) -> float:
+        return 0.0
+
 
 def signal(config: Mapping, case: str | HiddenEffectCase, sensors: str) -> dict[str, float]:
     """The signal of a case's record to learn from under a sensor set, and the samples it sums over."""
