@@ -47,7 +47,8 @@ def test_an_instant_dose_falls_into_its_step_and_adds_to_the_logged_feed(tmp_pat
 
 
 def test_an_anode_change_feeds_nothing_and_is_said_not_modelled(tmp_path):
-    """A new anode moves no input (the model has none for its heat); the findings' note counts it."""
+    """A new anode moves no input (the model has none for its heat); the findings' note counts those the
+    record runs through."""
     from costa.events import not_modelled, read_events
 
     rows = [

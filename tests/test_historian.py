@@ -29,8 +29,8 @@ cathode_area_m2: 12.0
 good_quality: [good, "192"]
 """
 START = pd.Timestamp("2026-03-01 06:00:00")  # local time in Oslo: 05:00 UTC
-#: the pot-line example's outcome (examples/pot-line/README.md): the feeder's effect flagged, not named in 10 days
-EXAMPLE_OUTCOME = "unexplained"
+#: the pot-line example's outcome (examples/pot-line/README.md): the feeder named in 10 days
+EXAMPLE_OUTCOME = "found"
 
 
 def _stamp(seconds: float) -> str:
@@ -117,6 +117,26 @@ def test_an_export_becomes_the_data_contracts_record_and_events(files, tmp_path)
     assert (tmp_path / "out/channels.png").stat().st_size > 0 and "Anode effects" in (
         tmp_path / "out/import.md"
     ).read_text()
+
+
+def test_an_anode_change_cuts_the_record_where_asked_and_feeds_nothing(files):
+    """With ``anode_change_after_s``, a new anode (an event of kind ``anode_change``) ends its stretch at
+    its step and the next starts that long after (from the state the estimator finds there); the event
+    then lies in the cut.  Without it the record runs through, the event placed."""
+    tags = TAGS.replace(
+        "  TAP: {kind: tap, unit: t}\n", "  TAP: {kind: tap, unit: t}\n  ANODE: {kind: anode_change, unit: kg}\n"
+    )
+    rows = _import(files()).report["rows"]
+    spoilt = files(tags=tags, events=EVENTS + f"\n{_stamp(9600)},ANODE,900,0,")
+    cut = _import(spoilt, anode_change_after_s=600)
+    record, report = cut.record, cut.report
+    assert report["trajectories"] == 3 and report["rows"] == rows - 60
+    assert record[record.trajectory == 1].time_s.max() == 9600 - 10
+    assert record[record.trajectory == 2].time_s.min() == 9600 + 600
+    assert report["anode_change_cuts"] == 1 and report["events"]["anode_change"] == {"placed": 0, "left_out": 1}
+    through = _import(spoilt)
+    assert through.report["trajectories"] == 2 and through.report["anode_change_cuts"] == 0
+    assert list(through.events.kind) == ["alumina_dose", "tap", "anode_change"]
 
 
 def test_a_wide_export_reads_as_the_long_one(files):
@@ -229,5 +249,5 @@ def test_the_pot_line_example_runs_from_its_two_commands(tmp_path):
     imported = json.loads((work / "results/pot-line/historian/pot12/import.json").read_text())
     assert imported["trajectories"] == 4 and len(imported["cuts"]) == 1 and len(imported["anode_effects"]) == 1
     found = json.loads((work / target).read_text())
-    assert found["outcome"] == EXAMPLE_OUTCOME, found["outcome"]
+    assert found["outcome"] == EXAMPLE_OUTCOME and found["named"] == ["input:u1"], (found["outcome"], found["named"])
     assert REPOSITORY != work

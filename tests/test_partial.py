@@ -781,3 +781,48 @@ def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monke
     obs = Observations(y=np.zeros((12, 5, 1)), u=np.zeros((12, 5, 5)), channels=("U_cell",), noise=np.ones(1), dt=10.0)
     candidate = search._fit(score, true_model(), obs, DiscoverySettings(), 0, False, [])
     assert candidate.features == [] and candidate.corrected is None and candidate.samples.shape == (200, 0)
+
+
+def test_a_constant_alone_replaces_a_form_of_several_terms_where_it_scores_better(default_config):
+    """A feeder at 92 % on two pot-line cells (3 days, the voltage every 10 s, daily samples): a
+    two-term form regressed badly gives way to the gain's constant refined alone, near the truth
+    (-0.08), the corrected model's tests and likelihood with it; a form that scores better stands."""
+    import dataclasses
+
+    from costa.discover.sparse.filter.search import _constant_if_better
+    from costa.discover.sparse.pipeline import checked_observations
+    from costa.discover.sparse.rounds import HypothesisScore, SparseCandidate, channel_tests
+    from costa.pot_line import DAY_S
+    from costa.sensors import measure, sensor_sets_from_config
+
+    model = starting_model(default_config, "full")
+    true, _ = CASES["alumina_feeder"].models(model)
+    sensors = sensor_sets_from_config(default_config["discovery"]["sensor_sets"])["pot_line"]
+    settings = SimulationSettings.from_config(default_config["simulation"])
+    settings = dataclasses.replace(settings, steps=int(3 * DAY_S / settings.dt), operation="pot_line")
+    run, _ = simulate_set(true, settings, 2, seed=3, replicate=0, stream_name="pot_line/feeder")
+    table = measure(true, run.x, run.u, settings.dt, sensors, np.random.default_rng(3))
+    discovery = settings_from_config(default_config)
+    obs = checked_observations(table, {s.channel: s.noise for s in sensors.sensors}, "feeder", discovery)
+    obs = obs.with_start(model)
+    (gain,) = [h for h in candidate_hypotheses(model) if h.key == "input:u1"]
+    library = {f.name: f for f in gain.features(False)}
+
+    def candidate(names, coefficients):
+        features = [library[n] for n in names]
+        corrected = gain.corrected(model, features, np.array(coefficients))
+        _, after = channel_tests(corrected, obs.searched_again(corrected), discovery, backward=False)
+        score = HypothesisScore(gain, 1.0, 0.0, 0.0)
+        return SparseCandidate(score=score, states=np.zeros(0), features=features, coefficients=np.array(coefficients),
+                               samples=np.zeros((20, len(names))), inclusion={}, corrected=corrected,
+                               log_likelihood=after.log_likelihood)  # fmt: skip
+
+    smoothed = SimpleNamespace(mean=np.full((2, 4, 9), -0.07))
+    poor = candidate(["1", "(c2 - 0.03)"], [-0.03, 4.0])
+    _constant_if_better(poor, model, obs, discovery, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
+    assert [f.name for f in poor.features] == ["1"] and poor.coefficients[0] == pytest.approx(-0.08, abs=0.01)
+    assert poor.samples.shape == (20, 1) and np.isfinite(poor.log_likelihood).all()
+    better = candidate(["1", "(c2 - 0.03)"], [-0.03, 4.0])
+    better.log_likelihood = better.log_likelihood + 1e6  # a form that fits the channels far better stands
+    _constant_if_better(better, model, obs, discovery, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
+    assert [f.name for f in better.features] == ["1", "(c2 - 0.03)"]

@@ -7,8 +7,9 @@ One pot run as a pot line runs it (the ``pot_line`` operation: current held, alu
 voltage), with a hidden effect (default: the alumina feeder delivers 92 % of its command; or
 ``no_effect``), written to ``examples/pot-line/data/`` (or ``--folder``) as:
 
-- ``export.csv``: the pot voltage and the line current, long (timestamp, tag, value, quality), in
-  local time (Europe/Oslo), stamped 0-3 s late, with a 30 min outage of both on day 2, a 2 min
+- ``export.csv``: the pot voltage, the line current and the anode-cathode distance the pot controller
+  tracks as it moves the beam (cm), long (timestamp, tag, value, quality), in
+  local time (Europe/Oslo), stamped 0-3 s late, with a 30 min outage of all three on day 2, a 2 min
   anode effect (30 V) on day 3, ten values sent twice, a few of bad quality and a setpoint tag;
 - ``lab.csv``: the bath temperature, the excess AlF3 (%) and the metal height (cm) once a day,
   reported 4 h after sampling;
@@ -67,6 +68,7 @@ def main(days: float, case: str, folder: Path, anode_change_hours: float) -> Non
     export = pd.concat([
         pd.DataFrame({"timestamp": _stamps(seconds[keep], rng), "tag": "POT12.VOLT", "value": volts[keep].round(4)}),
         pd.DataFrame({"timestamp": _stamps(seconds[keep], rng), "tag": "LINE.AMPS", "value": (u[keep, 1] / 1e3).round(3)}),
+        pd.DataFrame({"timestamp": _stamps(seconds[keep], rng), "tag": "POT12.ACD", "value": (u[keep, 4] * 100).round(3)}),
     ]).assign(quality="good").sort_values("timestamp", kind="stable", ignore_index=True)  # fmt: skip
     export.loc[rng.choice(len(export), 5, replace=False), "quality"] = "bad"
     setpoint = export.iloc[::8640].assign(tag="POT12.SETPOINT", value=4.25)

@@ -7,8 +7,8 @@ Parquet) has one row per event:
 - ``time_s`` [s]: when it starts, on the record's clock;
 - ``kind``: ``tap`` (metal removed, u4), ``alf3_addition`` (AlF3 fed, u3),
   ``alumina_dose`` (Al2O3 fed, u1) or ``anode_change`` (a new anode of ``amount_kg`` carbon set: it
-  feeds no input, the model has none for the heat it takes from the bath, and is counted where
-  the findings describe the data, :func:`not_modelled`);
+  feeds no input, the model has none for the heat it takes from the bath: the historian import
+  can cut the record there, and where it runs through one the findings say so, :func:`not_modelled`);
 - ``amount_kg`` [kg];
 - ``duration_s`` [s], optional: how long it lasts (a tap's siphoning); empty or 0 puts
   the whole amount into the step it falls in;
@@ -82,8 +82,9 @@ EVENT_KINDS: dict[str, EventKind] = {
 #: what the findings say where the events hold kinds that feed nothing (docs/own-data.md measures it)
 NOT_MODELLED = {
     "anode_change": "anode changes, which the model does not describe (it has no input for the heat a cold anode "
-    "takes from the bath): a pot with nothing else hidden and a new anode every 2 days was flagged in "
-    "every way tried, so a disagreement on this record may be theirs",
+    "takes from the bath): where the record runs through them they can flag a correct model (a pot hiding nothing "
+    "else, a new anode every 2 days: the pot voltage at 1.12 times its noise variance); cut the record at each "
+    "(historian.anode_change_after_s; 12 h passed that pot)",
 }
 
 

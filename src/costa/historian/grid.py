@@ -8,7 +8,10 @@ anode-cathode distance u5 where mapped) must have a value at every step: a gap o
 cuts is a trajectory (or as many whole ones of ``trajectory_s`` as it holds).  An anode effect
 (the voltage above ``anode_effect_v``) leaves the voltage empty from its start to
 ``anode_effect_after_s`` after its end; a voltage still outside the contract's range, or a mass
-not positive, is left empty too.  Events (feeder shots, AlF3 additions, taps) go on the record's
+not positive, is left empty too.  An anode change (a cold anode set, an event the model has no
+input for) cuts the record where ``anode_change_after_s`` > 0: its stretch ends at the change and
+the next starts that long after it, from the state the estimator finds there.  Events (feeder
+shots, AlF3 additions, taps, anode changes) go on the record's
 clock (``time_s`` from the grid's start) in the trajectory they fall in; one outside every
 trajectory (in a cut or a left-over stretch) is left out.  Every such choice is counted in the
 report (:mod:`.report`).
@@ -41,6 +44,7 @@ class GridSettings:
     max_gap_s: float = 600.0
     anode_effect_v: float = 8.0
     anode_effect_after_s: float = 600.0
+    anode_change_after_s: float = 0.0  # 0: an anode change does not cut the record
     trajectory_s: float | None = None  # each stretch cut into whole trajectories this long (the rest left out)
 
 
@@ -70,7 +74,10 @@ def import_historian(
     if logged is not None:
         _check_tags(Path(events), logged, tags, allowed=set(tags.events))
     grid = _Grid(values, tags, settings, Path(export))
-    record, report = grid.record()
+    changes = pd.Series([], dtype="datetime64[ns, UTC]")
+    if logged is not None:
+        changes = logged["time"][logged["tag"].map(lambda t: tags.events[t].kind == "anode_change").to_numpy(bool)]
+    record, report = grid.record(changes)
     placed, report["events"] = grid.events(logged, record) if logged is not None else (_no_events(), {})
     report["bad_quality"], report["empty_values"] = read.bad_quality, read.empty
     return Imported(record=record, events=placed, report=report)
@@ -133,8 +140,9 @@ class _Grid:
             out[means.index.to_numpy()] = means.to_numpy()
         return out
 
-    def record(self) -> tuple[pd.DataFrame, dict]:
-        """The contract's record (trajectory, time_s, u1..u5, channels) and the report so far."""
+    def record(self, changes: pd.Series) -> tuple[pd.DataFrame, dict]:
+        """The contract's record (trajectory, time_s, u1..u5, channels) and the report so far, cut at
+        the anode ``changes`` (UTC times) where ``anode_change_after_s`` > 0."""
         s = self.settings
         columns = {sig.target: self._averaged(sig) for sig in self.tags.signals.values()}
         report: dict = {"start_utc": str(self.start), "step_s": s.step_s, "steps": self.steps, "tags": {}}
@@ -143,6 +151,7 @@ class _Grid:
         held = self._hold(columns)
         valid = np.all([np.isfinite(columns[u]) for u in LOGGED_INPUTS if u in columns], axis=0)
         report["cuts"] = self._cuts(valid)
+        report["anode_change_cuts"] = self._cut_at_anode_changes(changes, valid)
         report["held_steps"] = held
         trajectory, report["left_over_steps"] = self._trajectories(valid)
         valid &= trajectory >= 0
@@ -183,6 +192,17 @@ class _Grid:
                 effects.append({"voltage": name, "start_utc": str(self.start + pd.Timedelta(seconds=first * s.step_s)),
                                 "seconds": float((last - first + 1) * s.step_s)})  # fmt: skip
         return effects
+
+    def _cut_at_anode_changes(self, changes: pd.Series, valid: np.ndarray) -> int:
+        """Leave out (in ``valid``) each anode change's step and the next ``anode_change_after_s``; how many."""
+        s = self.settings
+        if s.anode_change_after_s <= 0:
+            return 0
+        after = max(int(round(s.anode_change_after_s / s.step_s)), 1)
+        first = ((changes - self.start).dt.total_seconds() // s.step_s).astype(int).to_numpy()
+        for step in first[(first >= 0) & (first < self.steps)]:
+            valid[step : step + after] = False
+        return len(first)
 
     @staticmethod
     def _blank_implausible(columns: dict[str, np.ndarray]) -> dict[str, int]:

@@ -43,6 +43,8 @@ def report_markdown(report: dict) -> str:
     lines += [f"- {a['voltage']} from {a['start_utc']}, {a['seconds']:g} s" for a in report["anode_effects"]] or [
         "- none"
     ]
+    lines += ["", f"**Anode changes cut** (each stretch ends at one, the next starts anode_change_after_s later): "
+              f"{report['anode_change_cuts']}"]  # fmt: skip
     lines += ["", f"**Blanked** (outside the data contract's range), steps: {report['blanked'] or 'none'}"]
     lines += ["", "**Events** (placed in a trajectory / left out: in a cut or a left-over stretch):"]
     lines += [f"- {k}: {v['placed']} / {v['left_out']}" for k, v in report["events"].items()] or ["- none"]
