@@ -89,7 +89,9 @@ def write_trajectories(table: pd.DataFrame, path: str | Path, provenance: Mappin
 
 
 def read_provenance(path: str | Path) -> dict[str, Any]:
-    """The provenance :func:`write_trajectories` stored with a Parquet table ({} where none)."""
+    """The provenance :func:`write_trajectories` stored with a Parquet table ({} where none: a CSV has none)."""
+    if Path(path).suffix.lower() != ".parquet":
+        return {}
     metadata = pq.read_schema(path).metadata or {}
     return json.loads(metadata.get(b"costa.provenance", b"{}"))
 

@@ -209,8 +209,7 @@ DECIDED_BY = {
 KEPT_IF = {
     "filter": "selected in at least half the bootstrap resamples of the regression on the smoothed delta (or a flow "
     f"input, refined beside them), and its {KEEP_LEVEL:.0%} interval from the fit to the measured channels (the "
-    f"refined posterior; the {LEVELS[0]:.0%} interval lies inside it) excludes zero; a constant alone, refined on "
-    "the measured channels, replaces the form where it scores better (2 log-likelihood - terms ln(samples))",
+    f"refined posterior; the {LEVELS[0]:.0%} interval lies inside it) excludes zero",
     "shooting": "chosen by forward selection on the screen's normal equations while it lowers the cost by more than "
     "log(samples) (BIC); the intervals are the fit's Gauss-Newton posterior, the states eliminated",
 }
