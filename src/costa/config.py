@@ -228,7 +228,8 @@ def historian_settings(h: Mapping[str, Any], dt_s: float):
     return GridSettings(
         timezone=h["timezone"], step_s=dt_s, max_gap_s=h["max_gap_s"],
         anode_effect_v=h["anode_effect_v"], anode_effect_after_s=h["anode_effect_after_s"],
-        anode_change_after_s=h.get("anode_change_after_s", 0.0), trajectory_s=3600.0 * h["trajectory_hours"] if h["trajectory_hours"] else None,
+        anode_change_after_s=h["anode_change_after_s"],
+        trajectory_s=3600.0 * h["trajectory_hours"] if h["trajectory_hours"] else None,
     )  # fmt: skip
 
 

@@ -3,7 +3,7 @@ hold that the model does not describe (anode changes)."""
 
 from costa import runtime
 from costa.data import write_trajectories
-from costa.events import load_trajectories_with_events, not_modelled, read_events
+from costa.events import EVENT_KINDS, load_trajectories_with_events, not_modelled, read_events
 
 log = runtime.configure(snakemake)
 table = load_trajectories_with_events(snakemake.input.record, snakemake.input.events, snakemake.params.unlogged)
@@ -11,7 +11,7 @@ events = read_events(snakemake.input.events)
 log.info(
     "%s: %s added to the inputs of %s",
     snakemake.input.events,
-    ", ".join(f"{n} {kind}" for kind, n in events["kind"].value_counts().sort_index().items()),
+    ", ".join(f"{n} {k}" for k, n in events["kind"].value_counts().sort_index().items() if EVENT_KINDS[k].input),
     snakemake.input.record,
 )
 unmodelled = not_modelled(events)

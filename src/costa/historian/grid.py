@@ -200,9 +200,10 @@ class _Grid:
             return 0
         after = max(int(round(s.anode_change_after_s / s.step_s)), 1)
         first = ((changes - self.start).dt.total_seconds() // s.step_s).astype(int).to_numpy()
-        for step in first[(first >= 0) & (first < self.steps)]:
+        inside = first[(first >= 0) & (first < self.steps)]
+        for step in inside:
             valid[step : step + after] = False
-        return len(first)
+        return len(inside)
 
     @staticmethod
     def _blank_implausible(columns: dict[str, np.ndarray]) -> dict[str, int]:

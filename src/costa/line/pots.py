@@ -108,7 +108,8 @@ def imported_pot(line: Line, pot: str, dt_s: float, folder: str | Path) -> tuple
     from ..historian.report import write_import
 
     files, folder = line.historian_files(pot), Path(folder)
-    settings = historian_settings({**line.historian, "trajectory_hours": None}, dt_s)
+    # a pot is one stretch: not cut into trajectories, nor at its anode changes
+    settings = historian_settings({**line.historian, "trajectory_hours": None, "anode_change_after_s": 0.0}, dt_s)
     try:
         imported = import_historian(
             files["export"], read_tag_map(files["tags"]), settings, files.get("events"), files.get("lab")
