@@ -706,18 +706,27 @@ def test_a_trajectory_whose_filter_was_lost_leaves_the_closed_form_to_the_others
     assert with_lost["(c3 - 0.11)"] == pytest.approx(-0.02, rel=1e-3)
 
 
-def _alf3_lost(cells: int, stream: str):
-    """The true model, its hypothesis term:alf3_mass, and ``cells`` 2-hour records of a cell losing AlF3 at
-    a constant 0.003 kg/s, measured in its AlF3 fraction (noise 1e-4) and bath temperature (0.2 degC)."""
+def _hidden_constant(key: str, value: float, cells: int, stream: str, channels=("c3", "x6")):
+    """The true model, its hypothesis ``key``, and ``cells`` 2-hour records of a cell with that
+    hypothesis' constant at ``value``, measured in ``channels`` (fractions at noise 1e-4, the bath
+    temperature at 0.2 degC)."""
     model = true_model()
-    (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
-    truth = term.corrected(model, [f for f in term.features(False) if f.name == "1"], [-0.003])
+    (h,) = [h for h in candidate_hypotheses(model) if h.key == key]
+    truth = h.corrected(model, [f for f in h.features(False) if f.name == "1"], [value])
     settings = SimulationSettings.from_config(load_config()["simulation"])
     trajectories, _ = simulate_set(truth, replace(settings, steps=720), cells, 5, 0, stream)
     x = trajectories.x
-    c3 = x[..., 2:3] / x[..., 1:4].sum(-1, keepdims=True)
-    y = np.concatenate([c3, x[..., 5:6]], axis=-1) + np.random.default_rng(1).normal(0, [1e-4, 0.2], x.shape[:2] + (2,))
-    return model, term, Observations(y=y, u=trajectories.u, channels=("c3", "x6"), noise=np.array([1e-4, 0.2]), dt=10.0)
+    fractions = x[..., 1:4] / x[..., 1:4].sum(-1, keepdims=True)
+    measured = {"c2": fractions[..., 0:1], "c3": fractions[..., 1:2], "x6": x[..., 5:6]}
+    noise = np.array([0.2 if c == "x6" else 1e-4 for c in channels])
+    y = np.concatenate([measured[c] for c in channels], axis=-1)
+    y = y + np.random.default_rng(1).normal(0, noise, x.shape[:2] + (len(channels),))
+    return model, h, Observations(y=y, u=trajectories.u, channels=tuple(channels), noise=noise, dt=10.0)
+
+
+def _alf3_lost(cells: int, stream: str):
+    """A cell losing AlF3 at a constant 0.003 kg/s, measured in its AlF3 fraction and bath temperature."""
+    return _hidden_constant("term:alf3_mass", -0.003, cells, stream)
 
 
 def test_the_refinement_combines_the_trajectories_whose_filter_holds():
@@ -754,6 +763,40 @@ def test_of_terms_that_each_cover_zero_the_one_that_fits_best_alone_stays(monkey
     assert _best_alone(term, model, obs, settings, **alone) == 0
     monkeypatch.setattr(search, "refine_coefficients", lambda *args, **kwargs: None)
     assert _best_alone(term, model, obs, settings, **alone) == 1
+
+
+def test_an_input_gain_fitted_as_a_form_of_several_terms_gives_way_to_its_constant_alone():
+    """The alumina feed short by 8 % (input:u1 at -0.08) on three cells measured in alumina, AlF3 and
+    bath temperature, and a fitted form that reads the gain as 0.3 times the bath's excess over
+    970 degC: the gain's constant refined alone fits the channels better, so it replaces the form,
+    the truth within its interval; a missing AlF3 flow (not a relative change) keeps its form."""
+    from costa.discover.sparse.filter.search import _constant_if_better
+    from costa.discover.sparse.rounds import SparseCandidate, channel_tests
+
+    model, gain, obs = _hidden_constant("input:u1", -0.08, cells=3, stream="gain", channels=("c2", "c3", "x6"))
+    settings = settings_from_config(load_config())
+    smoothed = SimpleNamespace(mean=np.full(obs.y.shape[:2] + (9,), -0.05))
+
+    def fitted(h, names, coefficients):
+        features = [f for name in names for f in h.features(False) if f.name == name]
+        corrected = h.corrected(model, features, np.array(coefficients))
+        placed = obs.searched_again(corrected)
+        tests, after = channel_tests(corrected, placed, settings, backward=False)
+        return SparseCandidate(
+            score=SimpleNamespace(hypothesis=h), states=np.zeros(0), features=features,
+            coefficients=np.array(coefficients), samples=np.zeros((4, len(features))), inclusion={},
+            corrected=corrected, tests_after=tests, log_likelihood=after.log_likelihood, placed=placed,
+        )  # fmt: skip
+
+    form = fitted(gain, ["1", "(x6 - 970)"], [-0.02, 0.3])
+    _constant_if_better(form, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
+    assert [f.name for f in form.features] == ["1"]
+    assert form.samples.shape == (4, 1) and np.isfinite(form.log_likelihood).all()
+    assert abs(form.coefficients[0] + 0.08) < 0.01
+    (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
+    flow = fitted(term, ["1", "(x6 - 970)"], [-0.001, 1e-5])
+    _constant_if_better(flow, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
+    assert [f.name for f in flow.features] == ["1", "(x6 - 970)"]
 
 
 def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monkeypatch):

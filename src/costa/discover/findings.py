@@ -209,7 +209,8 @@ DECIDED_BY = {
 KEPT_IF = {
     "filter": "selected in at least half the bootstrap resamples of the regression on the smoothed delta (or a flow "
     f"input, refined beside them), and its {KEEP_LEVEL:.0%} interval from the fit to the measured channels (the "
-    f"refined posterior; the {LEVELS[0]:.0%} interval lies inside it) excludes zero",
+    f"refined posterior; the {LEVELS[0]:.0%} interval lies inside it) excludes zero; in the first round a constant "
+    "alone, refined on the measured channels, replaces the form where it scores better (2 log-likelihood - terms ln(samples))",
     "shooting": "chosen by forward selection on the screen's normal equations while it lowers the cost by more than "
     "log(samples) (BIC); the intervals are the fit's Gauss-Newton posterior, the states eliminated",
 }

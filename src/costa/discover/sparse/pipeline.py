@@ -128,7 +128,7 @@ def fit_first_round(
         return
     screen, searched = read_screen(screen_path, start)
     obs = replace(obs, start=searched)
-    fits = fit_share(screen, start, obs=obs, settings=settings, rich=False, share=share)
+    fits = fit_share(screen, start, obs=obs, settings=settings, rich=False, share=share, first=True)
     write_fits(fits, range(len(screen.candidates))[share], path)
 
 

@@ -79,6 +79,9 @@ log = logging.getLogger(__name__)
 #: two hypotheses whose changes of the state rates, each at a constant delta, differ by less than this
 #: share (rounding) are one fit: unlike fitted corrections, no closed form can tell them apart
 SAME_EFFECT = 1e-4
+#: hypotheses that are a relative change (an input's gain, a material property's factor): their
+#: constant alone is a whole closed form, a fixed relative error, tried beside the regression's
+RELATIVE_KINDS = ("input", "property")
 
 
 def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
@@ -316,10 +319,12 @@ def _fit(
     seed,
     rich: bool,
     tests: list[ChannelTest],
+    first: bool,
 ) -> SparseCandidate:
     """Smooth one hypothesis on every trajectory, fit its closed form, refine its coefficients on the
     measured channels, test the corrected model's innovations and keep its likelihood (scored
-    against the other candidates by :func:`_score`).  Every candidate of a round resamples with
+    against the other candidates by :func:`_score`); in the ``first`` round, a constant alone where
+    it scores better (:func:`_constant_if_better`).  Every candidate of a round resamples with
     the same ``seed``.  A hypothesis whose smoothed filter is lost on half the trajectories or
     more is not fitted (its refinement would give up there too)."""
     started = time.perf_counter()
@@ -357,14 +362,59 @@ def _fit(
     corrected = score.hypothesis.corrected(model, features, coefficients)
     candidate.placed = obs.searched_again(corrected)
     tests_after, after = channel_tests(corrected, candidate.placed, settings, backward=False)
-    flagged = [t.channel for t in tests if t.flagged]
     candidate.corrected, candidate.tests_after, candidate.log_likelihood = corrected, tests_after, after.log_likelihood
-    candidate.explained = 1 - _excess(tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
+    if first:
+        _constant_if_better(candidate, model, obs, settings, smoothed=smoothed, rich=rich, rng=rng)
+    flagged = [t.channel for t in tests if t.flagged]
+    candidate.explained = 1 - _excess(candidate.tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
     log.info(
         "%s: %s, log-likelihood %.1f, in %.1f s",
-        score.hypothesis.key, candidate.formula, np.sum(after.log_likelihood), time.perf_counter() - started,
+        score.hypothesis.key, candidate.formula, np.sum(candidate.log_likelihood), time.perf_counter() - started,
     )  # fmt: skip
     return candidate
+
+
+def _constant_if_better(
+    candidate: SparseCandidate, model: CellModel, obs: Observations, settings: DiscoverySettings, *,
+    smoothed: Smoothed, rich: bool, rng,
+) -> None:  # fmt: skip
+    """Replace the candidate's closed form of several terms by one constant, refined alone on the
+    measured channels, where the constant scores better by the round's own measure (2 log-likelihood
+    - terms x ln(samples), on as many trajectories held).  The regression on the smoothed delta
+    follows the filter's errors as well as the effect, and the refinement only drops terms: on a
+    30-day pot fed 92 %, a 7-term form in c2, c3 and x6 was kept where the gain's constant alone,
+    -0.0798 (the truth -0.08), fits 5,500 log-likelihood units better.  The first round only: in a
+    later round a constant flow stands in for what is left of an earlier round's closed form (the
+    liquidus law named from partial records lost its name to a constant bath-ledge transfer)."""
+    h = candidate.score.hypothesis
+    constant = next((f for f in h.features(rich) if f.name == "1"), None)
+    if h.kind not in RELATIVE_KINDS or constant is None or len(candidate.features) < 2:
+        return
+    delta = smoothed.mean[..., 8]
+    start = float(np.nanmean(delta))
+    width = np.array([max(0.5 * abs(start), float(np.nanstd(delta))) + 1e-300])
+    placed = obs.searched_again(h.corrected(model, [constant], np.array([start])))
+    refined = refine_coefficients(model, h, [constant], coefficients=np.array([start]), width=width, obs=placed)
+    if refined is None:
+        return
+    corrected = h.corrected(model, [constant], refined.coefficients)
+    placed = obs.searched_again(corrected)
+    tests_after, after = channel_tests(corrected, placed, settings, backward=False)
+    samples = np.log(max(int(np.isfinite(obs.y).sum()), 2))
+
+    def score(likelihood: np.ndarray, terms: int) -> tuple[int, float]:
+        held = np.isfinite(likelihood)
+        return int(held.sum()), 2 * float(likelihood[held].sum()) - terms * samples
+
+    if score(after.log_likelihood, 1) < score(candidate.log_likelihood, len(candidate.features)):
+        return
+    log.info("%s: a constant alone, %.4g, scores better than %s", h.key, refined.coefficients[0], candidate.formula)
+    candidate.features, candidate.coefficients = [constant], refined.coefficients
+    candidate.samples = rng.multivariate_normal(
+        refined.coefficients, refined.covariance, size=len(candidate.samples), method="eigh"
+    )
+    candidate.corrected, candidate.placed = corrected, placed
+    candidate.tests_after, candidate.log_likelihood = tests_after, after.log_likelihood
 
 
 def _cut(candidate: SparseCandidate, budget: int, model: CellModel, settings: DiscoverySettings) -> np.ndarray:
@@ -488,11 +538,13 @@ def screen_round(
 
 
 def fit_share(
-    screen: Screen, model: CellModel, obs: Observations, settings: DiscoverySettings, rich: bool, share: slice
-) -> list[SparseCandidate]:
-    """The screen's candidates in ``share`` (e.g. ``slice(j, None, jobs)``: job j of ``jobs``), each fitted."""
+    screen: Screen, model: CellModel, obs: Observations, settings: DiscoverySettings, rich: bool, share: slice,
+    first: bool,
+) -> list[SparseCandidate]:  # fmt: skip
+    """The screen's candidates in ``share`` (e.g. ``slice(j, None, jobs)``: job j of ``jobs``), each fitted;
+    ``first``: whether this is the first round."""
     return [
-        _fit(s, model, obs=obs, settings=settings, seed=screen.seed, rich=rich, tests=screen.tests)
+        _fit(s, model, obs=obs, settings=settings, seed=screen.seed, rich=rich, tests=screen.tests, first=first)
         for s in screen.candidates[share]
     ]
 
@@ -508,7 +560,7 @@ def discover_round(
         obs,
         settings=settings,
         screen=screen,
-        ranking=fit_share(screen, model, obs=obs, settings=settings, rich=rich, share=slice(None)),
+        ranking=fit_share(screen, model, obs=obs, settings=settings, rich=rich, share=slice(None), first=not named),
         named=named,
     )
 
