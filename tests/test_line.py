@@ -18,6 +18,7 @@ from costa.discover.pipeline import settings_from_config, starting_model
 from costa.line.check import check_pots, differing_pots, explained_pots
 from costa.line.groups import group_meta, group_pots, line_table, pooled_record
 from costa.line.page import line_page
+from costa.line.pooled import pool_again
 from costa.line.pots import Line, pot_record
 from costa.line.screen import screen_pot, signature
 
@@ -125,6 +126,41 @@ def test_the_page_says_which_correction_explains_which_pots_and_its_equivalents(
         "- input:u4, or term:metal_mass (group A, not identifiable): pot01, pot02\n- no group's correction: pot03\n"
         in page
     )
+
+
+def test_a_pot_another_groups_correction_explains_is_pooled_into_that_group_and_searched_again():
+    """Group A's correction brings its own pots and pot06 (group D, which its own group's correction
+    leaves disagreeing) within noise: pot06 moves to A, D is gone, A is searched again; pot07, which
+    A's correction also explains but its own group E's does too, stays in E.  The page's answer is
+    the second pass's."""
+    groups = [
+        {"group": "A", "hypothesis": "input:u4", "pots": ["pot01", "pot02"], "signatures": {"pot01": "x5+", "pot02": "x5+"}},
+        {"group": "D", "hypothesis": "transfer:ledge_mass->metal_mass", "pots": ["pot06"], "signatures": {"pot06": "x5+"}},
+        {"group": "E", "hypothesis": "term:metal_mass", "pots": ["pot07"], "signatures": {"pot07": "x5-"}},
+    ]  # fmt: skip
+    flagged = {"pot01": (True, False), "pot02": (True, False), "pot06": (True, False), "pot07": (True, False)}
+    checks = {
+        "A": _check(flagged, members=("pot01", "pot02")),
+        "D": _check({**flagged, "pot06": (True, True)}, members=("pot06",)),
+        "E": _check({**flagged, "pot07": (True, False)}, members=("pot07",)),
+    }
+    pooled = pool_again(groups, checks)
+    assert [(g["group"], g["pots"], g["from"], g["again"]) for g in pooled] == [
+        ("A", ["pot01", "pot02", "pot06"], ["A", "D"], True),
+        ("E", ["pot07"], ["E"], False),
+    ]
+    assert pooled[0]["signatures"] == {"pot01": "x5+", "pot02": "x5+", "pot06": "x5+"}
+    assert pool_again(groups, {}) == [{**g, "from": [g["group"]], "again": False} for g in groups]
+    line = Line.from_config({"name": "l", "starting_model": "full", "held_out_fraction": 0.34, "records": {
+        p: p for p in flagged}})  # fmt: skip
+    screens = {pot: _screen("input:u4", x5=0.4) for pot in flagged}
+    findings = {g: {"outcome": "unexplained", "named": [], "rounds": []} for g in "ADE"}
+    again = {"A": {"outcome": "found", "named": ["input:u4"], "rounds": [{"correction": {"closed_form": "-0.1"}}]}}
+    again_checks = {"A": _check(flagged, members=("pot01", "pot02", "pot06"))}
+    page = line_page(line, line_table(screens, {}), groups, findings, checks, pooled, again, again_checks)
+    assert "| A | pot01, pot02, pot06 | A, D | found | input:u4 | -0.1 | none | pot07 |" in page
+    assert "- input:u4 (group A, found): pot01, pot02, pot06, pot07\n- no group's correction: none\n" in page
+    assert "Pooled again" not in line_page(line, line_table(screens, {}), groups, findings, checks)
 
 
 def test_a_lines_config_is_checked_across_keys(default_config):

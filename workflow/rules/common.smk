@@ -411,15 +411,39 @@ def line_record(wildcards):
     return pot_record_path(wildcards.line, wildcards.pot)
 
 
-def _line_groups(wildcards):
-    """The groups of the line's checkpoint (its groups.json)."""
-    groups = checkpoints.line_groups.get(line=wildcards.line).output.groups
+#: a line's passes: the pots grouped by their screens, then pooled again by what each correction explains
+LINE_STAGES = "groups|pooled"
+
+
+def _line_groups(wildcards, stage="groups"):
+    """The groups of the line's checkpoint of ``stage``: the first pass (groups.json) or the second
+    (pooled.json: every group, ``again`` where it is searched again)."""
+    if stage == "pooled":
+        groups = checkpoints.line_pooled.get(line=wildcards.line).output.groups
+    else:
+        groups = checkpoints.line_groups.get(line=wildcards.line).output.groups
     return json.loads(Path(groups).read_text())
 
 
 def _line_group(wildcards):
-    """The group of the line's checkpoint named by the wildcards."""
-    return next(g for g in _line_groups(wildcards) if g["group"] == wildcards.group)
+    """The group of the line's checkpoint named by the wildcards (its stage's)."""
+    return next(
+        g
+        for g in _line_groups(wildcards, wildcards.stage)
+        if g["group"] == wildcards.group
+    )
+
+
+def line_stage_groups(wildcards):
+    """The groups file of the wildcards' stage."""
+    name = "groups" if wildcards.stage == "groups" else "pooled"
+    return out(f"line/{wildcards.line}/{name}.json")
+
+
+def line_stage_checkpoint(wildcards):
+    """The first output of the wildcards' stage's checkpoint."""
+    name = "line.csv" if wildcards.stage == "groups" else "pooled.json"
+    return out(f"line/{wildcards.line}/{name}")
 
 
 def line_flagged_pots(wildcards):
@@ -456,13 +480,14 @@ def line_group_meta(wildcards):
 
 def line_group_name(wildcards):
     """A group's data set name (its random streams; on a simulated line it ends in the sensor set,
-    whose gap restarts and shooting cells apply)."""
-    name = f"line/{wildcards.line}/{wildcards.group}"
+    whose gap restarts and shooting cells apply); a group searched again has its own."""
+    stage = "" if wildcards.stage == "groups" else "pooled/"
+    name = f"line/{wildcards.line}/{stage}{wildcards.group}"
     return f"{name}/{LINE.sensors}" if LINE.simulated else name
 
 
 def line_group_findings(wildcards, name="findings.json"):
-    """Every group's findings (or another of its files), once the line's checkpoint has grouped the pots."""
+    """Every first-pass group's findings (or another of its files), once the line's checkpoint has grouped the pots."""
     return [
         out(f"line/{wildcards.line}/groups/{g['group']}/{name}")
         for g in _line_groups(wildcards)
@@ -470,8 +495,22 @@ def line_group_findings(wildcards, name="findings.json"):
 
 
 def line_group_checks(wildcards):
-    """Every group's correction checked on its pots (rule line_group_check)."""
+    """Every first-pass group's correction checked on its pots (rule line_group_check)."""
     return line_group_findings(wildcards, "pots.csv")
+
+
+def line_pooled_findings(wildcards, name="findings.json"):
+    """The findings (or another file) of every group the second pass searches again."""
+    return [
+        out(f"line/{wildcards.line}/pooled/{g['group']}/{name}")
+        for g in _line_groups(wildcards, "pooled")
+        if g["again"]
+    ]
+
+
+def line_pooled_checks(wildcards):
+    """The checks of every group the second pass searches again."""
+    return line_pooled_findings(wildcards, "pots.csv")
 
 
 def historian_files(wildcards):

@@ -103,19 +103,21 @@ checkpoint line_groups:
 
 
 rule line_group_data:
-    """A group's pots pooled into one data set, split into pots to learn from and held out."""
+    """A group's pots pooled into one data set, split into pots to learn from and held out (the
+    first pass's groups, or the second pass's, stage pooled)."""
     input:
-        groups=out("line/{line}/groups.json"),
+        groups=line_stage_groups,
         records=line_group_records,
         code=package_files("line/groups.py", "discover/pipeline.py"),
     output:
-        record=out("line/{line}/groups/{group}/record.parquet"),
-        train=out("line/{line}/groups/{group}/data/train.parquet"),
-        held_out=out("line/{line}/groups/{group}/data/held_out.parquet"),
+        record=out("line/{line}/{stage}/{group}/record.parquet"),
+        train=out("line/{line}/{stage}/{group}/data/train.parquet"),
+        held_out=out("line/{line}/{stage}/{group}/data/held_out.parquet"),
     log:
-        out("line/{line}/groups/{group}/logs/data.log"),
+        out("line/{line}/{stage}/{group}/logs/data.log"),
     wildcard_constraints:
         line=LINE_NAME,
+        stage=LINE_STAGES,
     conda:
         ENV
     threads: 1
@@ -128,22 +130,23 @@ rule line_group_data:
 rule line_group_discovery:
     """Discovery on one group's pots together: one name, one closed form for all of them."""
     input:
-        # the checkpoint's first output: a cluster job reads the checkpoint in its params only where it is an input
-        checkpoint=out("line/{line}/line.csv"),
-        train=out("line/{line}/groups/{group}/data/train.parquet"),
-        held_out=out("line/{line}/groups/{group}/data/held_out.parquet"),
+        # the stage's checkpoint output: a cluster job reads the checkpoint in its params only where it is an input
+        checkpoint=line_stage_checkpoint,
+        train=out("line/{line}/{stage}/{group}/data/train.parquet"),
+        held_out=out("line/{line}/{stage}/{group}/data/held_out.parquet"),
         code=DISCOVERY_CODE,
     output:
-        findings=out("line/{line}/groups/{group}/findings.json"),
-        markdown=out("line/{line}/groups/{group}/findings.md"),
-        gap=out("line/{line}/groups/{group}/gap.parquet"),
-        per_state=out("line/{line}/groups/{group}/per_channel_errors.parquet"),
+        findings=out("line/{line}/{stage}/{group}/findings.json"),
+        markdown=out("line/{line}/{stage}/{group}/findings.md"),
+        gap=out("line/{line}/{stage}/{group}/gap.parquet"),
+        per_state=out("line/{line}/{stage}/{group}/per_channel_errors.parquet"),
     log:
-        out("line/{line}/groups/{group}/logs/discover.log"),
+        out("line/{line}/{stage}/{group}/logs/discover.log"),
     benchmark:
-        out("line/{line}/groups/{group}/benchmarks/discover.tsv")
+        out("line/{line}/{stage}/{group}/benchmarks/discover.tsv")
     wildcard_constraints:
         line=LINE_NAME,
+        stage=LINE_STAGES,
     conda:
         ENV
     threads: 2
@@ -164,19 +167,20 @@ rule line_group_check:
     model, its screen's tests): which of its own it leaves disagreeing, which of the others it explains.
     """
     input:
-        checkpoint=out("line/{line}/line.csv"),  # the checkpoint's first output, as above
-        findings=out("line/{line}/groups/{group}/findings.json"),
+        checkpoint=line_stage_checkpoint,  # as above
+        findings=out("line/{line}/{stage}/{group}/findings.json"),
         records=line_flagged_records,
         screens=line_flagged_screens,
         code=DISCOVERY_CODE + package_files("line/check.py", "line/pots.py"),
     output:
-        pots=out("line/{line}/groups/{group}/pots.csv"),
+        pots=out("line/{line}/{stage}/{group}/pots.csv"),
     log:
-        out("line/{line}/groups/{group}/logs/check.log"),
+        out("line/{line}/{stage}/{group}/logs/check.log"),
     benchmark:
-        out("line/{line}/groups/{group}/benchmarks/check.tsv")
+        out("line/{line}/{stage}/{group}/benchmarks/check.tsv")
     wildcard_constraints:
         line=LINE_NAME,
+        stage=LINE_STAGES,
     conda:
         ENV
     threads: 1
@@ -188,13 +192,36 @@ rule line_group_check:
         "../scripts/line_group_check.py"
 
 
+checkpoint line_pooled:
+    """The second pass's groups: a pot its own group's correction leaves disagreeing and another's
+    explains moves to that group; the groups whose pots changed are searched again."""
+    input:
+        groups=out("line/{line}/groups.json"),
+        checks=line_group_checks,
+        code=package_files("line/pooled.py", "line/check.py"),
+    output:
+        groups=out("line/{line}/pooled.json"),
+    log:
+        out("line/{line}/logs/pooled.log"),
+    wildcard_constraints:
+        line=LINE_NAME,
+    conda:
+        ENV
+    threads: 1
+    script:
+        "../scripts/line_pooled.py"
+
+
 rule line_report:
-    """The line's page: its pots by how they disagree, each group's outcome."""
+    """The line's page: its pots by how they disagree, each group's outcome, the groups pooled again."""
     input:
         table=out("line/{line}/line.csv"),
         groups=out("line/{line}/groups.json"),
         findings=line_group_findings,
         checks=line_group_checks,
+        pooled=out("line/{line}/pooled.json"),
+        pooled_findings=line_pooled_findings,
+        pooled_checks=line_pooled_checks,
         code=package_files("line"),
     output:
         page=out("line/{line}/line.md"),

@@ -91,7 +91,13 @@ def group_meta(line, group: Mapping[str, Any]) -> dict[str, Any]:
 
     pots = group["pots"]
     explained = f"explained by {group['hypothesis']}" if group["hypothesis"] else "explained by none"
-    meta: dict[str, Any] = {"data": f"pots {', '.join(pots)} of the line {line.name} ({explained} one by one)"}
+    if group.get("again"):
+        explained = (
+            f"groups {', '.join(group['from'])} pooled again by what group {group['group']}'s correction explained"
+        )
+    else:
+        explained += " one by one"
+    meta: dict[str, Any] = {"data": f"pots {', '.join(pots)} of the line {line.name} ({explained})"}
     if not line.simulated:
         return meta
     effects = sorted({line.effects[pot] for pot in pots})

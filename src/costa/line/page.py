@@ -15,11 +15,14 @@ __all__ = ["line_page"]
 
 def line_page(
     line, table: pd.DataFrame, groups: Sequence[Mapping[str, Any]], findings: Mapping[str, Mapping],
-    checks: Mapping[str, pd.DataFrame],
+    checks: Mapping[str, pd.DataFrame], pooled: Sequence[Mapping[str, Any]] = (),
+    pooled_findings: Mapping[str, Mapping] | None = None, pooled_checks: Mapping[str, pd.DataFrame] | None = None,
 ) -> str:  # fmt: skip
     """The page of ``line`` from its table (:func:`.groups.line_table`), its ``groups``, each group's
     ``findings`` (group -> its findings.json) and ``checks`` (group -> its correction on every pot that
-    disagrees, :func:`.check.check_pots`)."""
+    disagrees, :func:`.check.check_pots`); ``pooled``: the second pass's groups (:func:`.pooled.pool_again`),
+    with the findings and checks of those searched again.  The line's answer is the second pass's."""
+    pooled_findings, pooled_checks = pooled_findings or {}, pooled_checks or {}
     pots = table.groupby("pot", sort=False).first()
     group_of = {pot: g["group"] for g in groups for pot in g["pots"]}
     flagged = sum(bool(s) for s in pots["signature"])
@@ -36,29 +39,51 @@ def line_page(
     for pot, row in pots.iterrows():
         cells = [pot, group_of.get(pot, "—"), row["signature"] or "nothing", f"{largest[pot]:.3g}", best.get(pot, "—")]
         lines.append("| " + " | ".join(cells + ([row["hidden"]] if line.simulated else [])) + " |")
+    lines += ["", *_group_table(groups, findings, checks)]
     lines += [
-        "", "| group | pots | outcome | named | closed form | its pots it leaves disagreeing | other pots it explains |",
-        "|---|---|---|---|---|---|---|",
+        "", "Each group's correction is checked on every pot that disagrees, alone. A pot of the group it leaves "
+        "disagreeing differs from the rest: the effect stronger or weaker in it (its coefficient), or something more "
+        "missing. A pot of another group it brings within noise misses the same physics (the one-by-one screens could "
+        "not tell).",
+    ]  # fmt: skip
+    again = [g for g in pooled if g["again"]]
+    if again:
+        lines += [
+            "", "Pooled again: a pot its own group's correction leaves disagreeing moves to the first group whose "
+            "correction brings it within noise, and each group whose pots changed is searched again on them together.",
+            "", *_group_table(again, pooled_findings, pooled_checks, pooled=True),
+        ]  # fmt: skip
+        findings = {g["group"]: (pooled_findings if g["again"] else findings).get(g["group"], {}) for g in pooled}
+        checks = {g["group"]: (pooled_checks if g["again"] else checks).get(g["group"]) for g in pooled}
+        groups = pooled
+    lines += ["", *_explanations(pots, groups, findings, checks)]
+    if line.simulated:
+        lines += ["", *_scored(line, pots, groups, findings, checks)]
+    return "\n".join(lines) + "\n"
+
+
+def _group_table(
+    groups: Sequence[Mapping[str, Any]], findings: Mapping[str, Mapping], checks: Mapping[str, pd.DataFrame],
+    pooled: bool = False,
+) -> list[str]:  # fmt: skip
+    """Each group's outcome, its correction and what the correction leaves and explains (``pooled``:
+    with the first-pass groups its pots come from)."""
+    source = ("| from groups ", "---|") if pooled else ("", "")
+    lines = [
+        f"| group | pots {source[0]}| outcome | named | closed form | its pots it leaves disagreeing | other pots it explains |",
+        f"|---|---|{source[1]}---|---|---|---|---|",
     ]  # fmt: skip
     for g in groups:
         f, check = findings.get(g["group"], {}), checks.get(g["group"])
         correction = next((r.get("correction") for r in f.get("rounds", []) if r.get("correction")), None)
         left = differing_pots(check, pots=g["pots"]) if check is not None else []
         explains = explained_pots(check, g["pots"]) if check is not None else []
+        origin = f"| {', '.join(g['from'])} " if pooled else ""
         lines.append(
-            f"| {g['group']} | {', '.join(g['pots'])} | {f.get('outcome', '—')} | {', '.join(f.get('named', [])) or '—'} "
+            f"| {g['group']} | {', '.join(g['pots'])} {origin}| {f.get('outcome', '—')} | {', '.join(f.get('named', [])) or '—'} "
             f"| {correction['closed_form'] if correction else '—'} | {', '.join(left) or 'none'} | {', '.join(explains) or 'none'} |"
         )  # fmt: skip
-    lines += [
-        "", "Each group's correction is checked on every pot that disagrees, alone. A pot of the group it leaves "
-        "disagreeing differs from the rest: the effect stronger or weaker in it (its coefficient), or something more "
-        "missing. A pot of another group it brings within noise misses the same physics (the one-by-one screens could "
-        "not tell).",
-        "", *_explanations(pots, groups, findings, checks),
-    ]  # fmt: skip
-    if line.simulated:
-        lines += ["", *_scored(line, pots, groups, findings, checks)]
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def _scored(
