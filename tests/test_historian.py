@@ -29,8 +29,8 @@ cathode_area_m2: 12.0
 good_quality: [good, "192"]
 """
 START = pd.Timestamp("2026-03-01 06:00:00")  # local time in Oslo: 05:00 UTC
-#: the pot-line example's outcome (examples/pot-line/README.md): the feeder's effect flagged, not named in 10 days
-EXAMPLE_OUTCOME = "unexplained"
+#: the pot-line example's outcome (examples/pot-line/README.md): the feeder's gain named in 10 days
+EXAMPLE_OUTCOME, EXAMPLE_NAMED = "found", ["input:u1"]
 
 
 def _stamp(seconds: float) -> str:
@@ -249,5 +249,5 @@ def test_the_pot_line_example_runs_from_its_two_commands(tmp_path):
     imported = json.loads((work / "results/pot-line/historian/pot12/import.json").read_text())
     assert imported["trajectories"] == 4 and len(imported["cuts"]) == 1 and len(imported["anode_effects"]) == 1
     found = json.loads((work / target).read_text())
-    assert found["outcome"] == EXAMPLE_OUTCOME and not found["named"], (found["outcome"], found["named"])
+    assert found["outcome"] == EXAMPLE_OUTCOME and found["named"] == EXAMPLE_NAMED, (found["outcome"], found["named"])
     assert REPOSITORY != work
