@@ -822,5 +822,5 @@ def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monke
         hypothesis=SimpleNamespace(key="property:current_efficiency"), scale=1.0, walk=0.3, log_likelihood_gain=1.0
     )
     obs = Observations(y=np.zeros((12, 5, 1)), u=np.zeros((12, 5, 5)), channels=("U_cell",), noise=np.ones(1), dt=10.0)
-    candidate = search._fit(score, true_model(), obs, DiscoverySettings(), 0, False, [])
+    candidate = search._fit(score, true_model(), obs, DiscoverySettings(), 0, False, [], first=True)
     assert candidate.features == [] and candidate.corrected is None and candidate.samples.shape == (200, 0)
