@@ -1,15 +1,18 @@
-"""What to measure next: the measurements that would tell two explanations apart, in noise stds."""
+"""What to measure next: the measurements that would tell explanations apart, in noise stds, and the chance
+that the added record names one."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.stats import norm
 
-from costa.discover.sparse.measure_next import measure_next, sampled_every
+from costa.discover.sparse.measure_next import decides, measure_next, sampled_every
 from costa.discover.sparse.observations import Observations
 from costa.physics import true_model
 
 DAY = 8640  # steps of 10 s
+MARGIN = 10.0  # BIC
 
 
 @pytest.fixture
@@ -20,7 +23,7 @@ def two_explanations():
     u = np.tile(np.array([18.0, 140000.0, 5.0, 5.0, 0.05]), (2, DAY, 1))
     other = x.copy()
     other[..., 4] += 30.0
-    return [(model, x), (model, other)], u
+    return [("first", model, x), ("second", model, other)], u
 
 
 def _obs(u, channels=("U_cell",), every=(1,)):
@@ -34,21 +37,24 @@ def test_the_measurement_that_separates_two_explanations_ranks_first(two_explana
     """A metal dip of 15 kg noise every 8 h sees 3 samples a cell of a 30 kg difference: sqrt(2 x 3 x 2^2)
     = 4.9 noise stds; daily, sqrt(2 x 1 x 2^2) = 2.8; channels on which they agree separate nothing."""
     explanations, u = two_explanations
-    ranked = measure_next(explanations, _obs(u), top=10)
+    ranked = measure_next(explanations, _obs(u), MARGIN, top=10)
     assert [(r.channel, r.every_s) for r in ranked[:2]] == [("x5", 28800), ("x5", 86400)]
     assert ranked[0].separation == pytest.approx(np.sqrt(24)) and ranked[1].separation == pytest.approx(np.sqrt(8))
     assert all(r.separation == 0 for r in ranked[2:])
-    assert "every 8 h" in ranked[0].describe()
+    assert "every 8 h" in ranked[0].describe() and ranked[0].rival == "second"
+    # the chance of a name: the BIC lead of the truth over the other is normal, mean d^2 = 24, std 2 d
+    assert ranked[0].decides == pytest.approx(norm.cdf((24 - MARGIN) / (2 * np.sqrt(24))))
+    assert ranked[2].decides == 0.0
 
 
 def test_a_channel_already_measured_as_often_is_not_recommended(two_explanations):
     explanations, u = two_explanations
     obs = _obs(u, ("U_cell", "x5"), (1, 2880))
     assert sampled_every(obs) == {"U_cell": 10.0, "x5": 28800.0}
-    assert all(r.channel != "x5" for r in measure_next(explanations, obs, top=10))
-    assert measure_next(explanations[:1], obs) == []
+    assert all(r.channel != "x5" for r in measure_next(explanations, obs, MARGIN, top=10))
+    assert measure_next(explanations[:1], obs, MARGIN) == []
     pot = _obs(u, ("U_pot",), (1,))  # the pot voltage is the cell voltage plus constants
-    assert all(r.channel != "U_cell" for r in measure_next(explanations, pot, top=10))
+    assert all(r.channel != "U_cell" for r in measure_next(explanations, pot, MARGIN, top=10))
 
 
 def test_one_cell_whose_filter_ran_away_does_not_decide():
@@ -61,6 +67,16 @@ def test_one_cell_whose_filter_ran_away_does_not_decide():
     other = x.copy()
     other[..., 4] += 30.0
     other[0, :, 7] = 1e6
-    ranked = measure_next([(model, x), (model, other)], _obs(u), top=10)
+    ranked = measure_next([("a", model, x), ("b", model, other)], _obs(u), MARGIN, top=10)
     assert ranked[0].channel == "x5" and ranked[0].separation == pytest.approx(np.sqrt(3 * 3 * 4))
     assert [r.separation for r in ranked if r.channel == "x8"] == [0.0]
+
+
+def test_the_chance_of_a_name_over_every_explanation_standing():
+    """Known values: far apart, a name is certain; at d^2 equal to the margin, a coin; an explanation the
+    measurement cannot tell from another (d = 0) is never named, whichever of the two is the truth."""
+    far = np.array([[0.0, 100.0], [100.0, 0.0]])
+    assert decides(far, MARGIN) == pytest.approx(1.0)
+    assert decides(np.sqrt(MARGIN) * (1 - np.eye(2)), MARGIN) == pytest.approx(0.5)
+    twins = np.array([[0.0, 0.0, 100.0], [0.0, 0.0, 100.0], [100.0, 100.0, 0.0]])
+    assert decides(twins, MARGIN) == pytest.approx(1 / 3)  # only the third, when it is the truth

@@ -28,7 +28,6 @@ config/smoke.yaml``, results under results/smoke/), in the ``smoke_run`` fixture
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import shutil
 import subprocess
@@ -352,22 +351,13 @@ def check_compiled_step_benchmark(command, smoke_run, tmp_path):
     assert rows == ["96", "1152", "10000"] and "compiled tangents" in result.stdout, result.stdout
 
 
-def check_measure_next_loop(command, smoke_run, tmp_path):
-    """Its whole run is the shipped cases under a sensor set (tens of minutes each): here its usage, and the
-    choice of the measurement it adds from a findings file."""
-    result = run_command(smoke_run, f"{command} --help")
-    assert result.returncode == 0 and "closed loop" in result.stdout, result.stderr[-2000:]
-    spec = importlib.util.spec_from_file_location("loop", REPOSITORY / "benchmarks" / "measure_next_loop.py")
-    loop = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(loop)
-    ranked = [
-        {"channel": "U_cell", "every_s": 10},
-        {"channel": "x6", "every_s": 86400},
-        {"channel": "x8", "every_s": 600},
-    ]
-    found = {"named": [], "rounds": [{"measure_next": ranked}]}
-    assert loop.top_recommendation(found, {"U_pot", "x6"})["channel"] == "x8"  # the pot voltage is the cell voltage
-    assert loop.top_recommendation({**found, "named": ["input:u1"]}, {"U_pot"}) is None
+def check_closed_loop_dry_run(command, smoke_run, tmp_path):
+    """The closed loop over the quick size's sparse cases: each run again with its top recommendation, one page."""
+    result = run_command(smoke_run, f"{on_smoke(command)} --dry-run")
+    assert result.returncode == 0, result.stderr[-4000:]
+    assert "collect_closed_loop" in result.stdout and "discover_next" in result.stdout
+    assert "results/smoke/discovery/drawn100003/sensors/pot_line/next/loop.json" in result.stdout
+    assert "discovery/drawn100000/sensors/full/next" not in result.stdout  # full-state findings recommend nothing
 
 
 def check_suite_is_collected(command, smoke_run, tmp_path):
@@ -415,12 +405,12 @@ RUN_CHECKS = {
     "snakemake --cores 2 --configfile config/beyond.yaml": check_beyond_dry_run,
     "snakemake --cores 2 results/peers/summary.csv": check_peers_dry_run,
     "snakemake --cores 2 results/benchmark/summary.csv --configfile config/benchmark.yaml": check_benchmark_dry_run,
+    "snakemake --cores 2 results/benchmark/closed_loop.md --configfile config/benchmark.yaml": check_closed_loop_dry_run,
     'python benchmarks/bound_variants.py --reps "" replicates/r1/': check_bound_variants,
     "snakemake --report results/snakemake_report.html": check_report,
     "python benchmarks/train_speed.py": check_benchmark,
     "python benchmarks/shooting_fits.py": check_shooting_benchmark,
     "python benchmarks/form_screen.py": check_form_screen_benchmark,
-    "python benchmarks/measure_next_loop.py": check_measure_next_loop,
     "python benchmarks/compiled_step.py": check_compiled_step_benchmark,
     "pytest -m slow": check_suite_is_collected,
     "pytest -m integration": check_suite_is_collected,

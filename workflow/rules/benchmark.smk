@@ -59,3 +59,28 @@ rule collect_benchmark:
         sizes=config["benchmark"]["sizes"],
     script:
         "../scripts/collect_benchmark.py"
+
+
+rule collect_closed_loop:
+    """The closed loop of "what to measure next" over the benchmark's sparse cases: per sensor set, what
+    the added measurements predicted and achieved, and the right names they gained."""
+    input:
+        loops=[
+            out(f"discovery/{case}/sensors/{sensors}/next/loop.json")
+            for case, sensors in BENCHMARK_CASES
+            if sensors != "full"
+        ],
+        code=package_files("benchmark/closed_loop.py", "benchmark/score.py"),
+    output:
+        table=out("benchmark/closed_loop.csv"),
+        summary=out("benchmark/closed_loop_summary.csv"),
+        page=out("benchmark/closed_loop.md"),
+    log:
+        out("benchmark/logs/closed_loop.log"),
+    conda:
+        ENV
+    threads: 1
+    params:
+        split=config["benchmark"]["split"],
+    script:
+        "../scripts/collect_closed_loop.py"

@@ -142,3 +142,37 @@ rule collect_sensors:
         sensors=[s for case in SHIPPED_CASES for s in SENSOR_SETS],
     script:
         "../scripts/collect_sensors.py"
+
+
+rule discover_next:
+    """The closed loop: a sparse run that ended without a name, discovered again on its record with the
+    first round's top recommended measurement added (what was predicted and achieved in loop.json)."""
+    input:
+        before=out("discovery/{case}/sensors/{sensors}/findings.json"),
+        train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
+        held_out=out("discovery/{case}/sensors/{sensors}/data/held_out.parquet"),
+        code=DISCOVERY_CODE + CASE_DATA_CODE + package_files("benchmark/closed_loop.py"),
+    output:
+        findings=out("discovery/{case}/sensors/{sensors}/next/findings.json"),
+        markdown=out("discovery/{case}/sensors/{sensors}/next/findings.md"),
+        loop=out("discovery/{case}/sensors/{sensors}/next/loop.json"),
+    log:
+        out("discovery/{case}/sensors/{sensors}/logs/next.log"),
+    benchmark:
+        out("discovery/{case}/sensors/{sensors}/benchmarks/next.tsv")
+    wildcard_constraints:
+        case="|".join([*SHIPPED_CASES, DRAWN_CASE]),
+        sensors="|".join(config["discovery"]["sensor_sets"]),
+    conda:
+        ENV
+    threads: 2  # the whole search in one job
+    resources:
+        mem_mb=6000,
+    params:
+        config=discovery_config,
+        meta=sensor_meta,
+        starting_model=starting_model_name,
+        name=lambda wildcards: f"{wildcards.case}/{wildcards.sensors}",
+        declared_noise=declared_noise,
+    script:
+        "../scripts/discover.py"

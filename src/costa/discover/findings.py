@@ -165,6 +165,8 @@ def _sparse_round(index: int, r: Round) -> dict[str, Any]:
                 "every_s": m.every_s,
                 "noise": m.noise,
                 "separation_noise_stds": round(m.separation, 1),
+                "rival": m.rival,
+                "name_probability": round(m.decides, 3),
             }
             for m in r.measure_next
         ],
@@ -517,11 +519,11 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
         lines += [f"- `{h['hypothesis']}`: {h['description']}" for h in r["not_fitted"]]
 
     if r.get("measure_next"):
-        lines += ["", "What to measure next (the expected separation of the best explanation from the nearest other, "
-                  "over this record's cells and hours, in noise stds):"]  # fmt: skip
+        lines += ["", "What to measure next, by the chance the added record names an explanation (and the expected "
+                  "separation of the best from its nearest rival over this record's cells and hours, in noise stds):"]  # fmt: skip
         lines += [
             f"- `{m['channel']}` ({m['meaning']}) every {m['every_s']:g} s, noise {m['noise']:g}: "
-            f"{m['separation_noise_stds']:g}"
+            f"a name with probability {m['name_probability']:.2f}; {m['separation_noise_stds']:g} from `{m['rival']}`"
             for m in r["measure_next"]
         ]
     if r.get("at_term_budget"):

@@ -11,13 +11,15 @@ import pandas as pd
 from ... import seeds
 from ...observe import observe
 from ...physics import model_from_config
-from ...sensors import SensorSet, measure, sensor_sets_from_config
+from ...sensors import Sensor, SensorSet, measure, sensor_sets_from_config
 from ...simulate import SimulationSettings, simulate_set
 from .drawn import DRAWN_NAME
 from .shipped import HiddenEffectCase
 from .unshipped import find_case
 
-__all__ = ["case_noise", "case_table", "case_tables", "record_settings", "simulated_cells", "simulated_data"]
+__all__ = [
+    "case_noise", "case_table", "case_tables", "record_settings", "simulated_cells", "simulated_data", "with_channel",
+]  # fmt: skip
 
 
 def case_tables(
@@ -45,6 +47,26 @@ def case_table(config: Mapping, case: HiddenEffectCase, sensors: str, split: str
     noise = f"{stream}/noise" if sensors == "full" else f"{stream}/sensors/{sensors}"
     rng = seeds.numpy_generator(config["seed"], 0, noise)
     return measure(true, x, u=u, dt=settings.dt, sensors=sensor_set, rng=rng, default_noise=default)
+
+
+def with_channel(
+    config: Mapping, case: str | HiddenEffectCase, sensors: str, split: str, table: pd.DataFrame, sensor: Sensor
+) -> pd.DataFrame:
+    """``table`` (the ``split`` of :func:`case_tables` under ``sensors``) with ``sensor`` added: the record's own
+    samples as they were, the added channel's (or, where the record samples it more rarely, its samples between
+    the record's) with noise and phases from a stream of its own."""
+    case = find_case(case) if isinstance(case, str) else case
+    _, settings = record_settings(config, sensors, case.name)
+    true, _ = case.models(model_from_config(config["physics"])[0])
+    x, u = simulated_cells(config, case, sensors, split)
+    stream = f"discovery/{case.name}/{split}/sensors/{sensors}/added/{sensor.channel}"
+    rng = seeds.numpy_generator(config["seed"], 0, stream)
+    added = measure(true, x, u=u, dt=settings.dt, sensors=SensorSet(name="added", sensors=(sensor,)), rng=rng)
+    keys, channel = ["trajectory", "step"], sensor.channel
+    new = table[keys].merge(added[[*keys, channel]], on=keys, how="left", validate="one_to_one")[channel]
+    if channel in table:  # measured more often: the record's samples kept, the added ones between them
+        new = table[channel].where(table[channel].notna(), new.to_numpy())
+    return table.assign(**{channel: new.to_numpy()})
 
 
 def record_settings(config: Mapping, sensors: str, case: str = "") -> tuple[SensorSet, SimulationSettings]:

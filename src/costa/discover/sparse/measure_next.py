@@ -5,12 +5,19 @@ equally well) or unexplained, each explanation implies its own history of every 
 over the record: the smoothed states under its corrected model, on the record's own
 inputs.  A measurement that samples a channel where those histories differ by many noise
 stds would separate them.  Each instrument a pot line can add (:data:`costa.sensors.AVAILABLE`)
-is scored by the expected separation of the first explanation from the nearest other one:
-per cell sqrt(sum over its samples of (difference / noise std)^2), combined over the n cells
-as sqrt(n x the median cell's square), in noise stds (a cell whose filter ran away under one
-explanation would otherwise decide alone); the list is ranked by it.  A channel already
-measured as often is left out (a logged pot voltage counts as the cell voltage: it is U plus
-known constants).
+is scored, for every pair of explanations, by their expected separation d: per cell
+sqrt(sum over its samples of (difference / noise std)^2), combined over the n cells as
+sqrt(n x the median cell's square), in noise stds (a cell whose filter ran away under one
+explanation would otherwise decide alone).
+
+The list is ranked by the chance the added record decides: where explanation i is the truth, its
+BIC lead over j from the new samples is normal with mean d^2 and std 2 d (twice the
+log-likelihood ratio of two known means), so it clears the naming margin m with probability
+Phi((d^2 - m) / (2 d)); the chance of a name is the mean over the explanations, each taken as the
+truth in turn (they fit the record alike), of the product over its rivals.  The separation of the
+first explanation from its nearest rival is reported beside it, the number a closed loop checks.
+A channel already measured as often is left out (a logged pot voltage counts as the cell voltage:
+it is U plus known constants).
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import norm
 
 from ...observe import observe
 from ...physics import CellModel
@@ -26,23 +34,26 @@ from ...sensors import AVAILABLE, Sensor
 from ...variables import MEANING
 from .observations import Observations
 
-__all__ = ["Recommendation", "measure_next", "sampled_every"]
+__all__ = ["Recommendation", "decides", "measure_next", "sampled_every", "to_separate"]
 
 
 @dataclass(frozen=True)
 class Recommendation:
     """Measuring ``channel`` every ``every_s`` seconds with noise ``noise`` would separate the
-    explanations by ``separation`` noise stds (the first from the nearest other)."""
+    first explanation from its nearest rival, ``rival`` (a hypothesis key), by ``separation`` noise
+    stds, and name one of the explanations with probability ``decides``."""
 
     channel: str
     every_s: float
     noise: float
     separation: float
+    rival: str
+    decides: float
 
     def describe(self) -> str:
         return (
             f"{self.channel} ({MEANING[self.channel]}) every {_interval(self.every_s)}, noise {self.noise:g}: "
-            f"{self.separation:.1f} noise stds"
+            f"{self.separation:.1f} noise stds from {self.rival}, a name with probability {self.decides:.2f}"
         )
 
 
@@ -60,6 +71,16 @@ def _separation(z: np.ndarray) -> float:
     return float(np.sqrt(len(per_cell) * np.median(per_cell)))
 
 
+def decides(d: np.ndarray, margin: float) -> float:
+    """The chance that samples separating explanations pairwise by ``d`` (k, k) noise stds name one: the
+    mean over i of the product over j != i of Phi((d_ij^2 - margin) / (2 d_ij)), ``margin`` in BIC."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        clears = norm.cdf((d**2 - margin) / (2 * d))
+    clears = np.where(np.isfinite(clears), clears, 0.0)
+    np.fill_diagonal(clears, 1.0)
+    return float(np.prod(clears, axis=1).mean())
+
+
 def sampled_every(obs: Observations) -> dict[str, float]:
     """Each measured channel's typical sampling interval [s] (the median spacing of its samples)."""
     every = {}
@@ -70,15 +91,24 @@ def sampled_every(obs: Observations) -> dict[str, float]:
     return every
 
 
+def to_separate(chosen, rivals: Sequence, ranking: Sequence, count: int = 3) -> list:
+    """The fitted candidates a measurement should tell apart: the chosen one and its rivals, or, where it
+    has none (its outcome undecided for another reason: hypotheses not fitted, a channel left), the
+    chosen one and the next best fitted, ``count`` in all."""
+    fitted = [c for c in ranking if c is not chosen and c.corrected is not None and c.states is not None]
+    return [chosen, *rivals] if rivals else [chosen, *fitted[: count - 1]]
+
+
 def measure_next(
-    explanations: Sequence[tuple[CellModel, np.ndarray]],
+    explanations: Sequence[tuple[str, CellModel, np.ndarray]],
     obs: Observations,
+    margin: float,
     available: Sequence[Sensor] = AVAILABLE,
     top: int = 5,
 ) -> list[Recommendation]:
-    """The ``top`` measurements that best separate the first of ``explanations`` (each a corrected
-    model and its smoothed states (n, K, 8) on the record) from the others, best first; empty where
-    there is nothing to separate it from."""
+    """The ``top`` measurements most likely to name one of ``explanations`` (each a hypothesis key, its
+    corrected model and its smoothed states (n, K, 8) on the record), best first, with the naming
+    ``margin`` [BIC]; empty where there is nothing to separate the first from."""
     if len(explanations) < 2:
         return []
     measured = sampled_every(obs)
@@ -86,18 +116,20 @@ def measure_next(
         measured["U_cell"] = min(measured["U_pot"], measured.get("U_cell", np.inf))
     channels = sorted({s.channel for s in available}, key=[s.channel for s in available].index)
     with np.errstate(all="ignore"):
-        values = [observe(model, x, obs.u, channels) for model, x in explanations]
+        values = [observe(model, x, obs.u, channels) for _, model, x in explanations]
     found = []
     for sensor in available:
         if measured.get(sensor.channel, np.inf) <= sensor.every_s:
             continue
         stride = max(1, round(sensor.every_s / obs.dt))
         c = channels.index(sensor.channel)
-        first = values[0][:, ::stride, c]
-        separations = [_separation((first - other[:, ::stride, c]) / sensor.noise) for other in values[1:]]
+        sampled = [v[:, ::stride, c] / sensor.noise for v in values]
+        d = np.array([[_separation(a - b) for b in sampled] for a in sampled])
+        nearest = 1 + int(np.argmin(d[0, 1:]))
         found.append(
             Recommendation(
-                channel=sensor.channel, every_s=sensor.every_s, noise=sensor.noise, separation=float(min(separations))
+                channel=sensor.channel, every_s=sensor.every_s, noise=sensor.noise, separation=float(d[0, nearest]),
+                rival=explanations[nearest][0], decides=decides(d, margin),
             )
-        )
-    return sorted(found, key=lambda r: -r.separation)[:top]
+        )  # fmt: skip
+    return sorted(found, key=lambda r: (-r.decides, -r.separation))[:top]

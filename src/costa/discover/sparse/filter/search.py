@@ -57,7 +57,7 @@ from ...core.outcome import Decision
 from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest
-from ..measure_next import Recommendation, measure_next
+from ..measure_next import Recommendation, measure_next, to_separate
 from ..observations import Observations
 from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests
 from .likelihood import likelihood_gains, mostly_lost, refine_coefficients, score_hypotheses, smooth_hypothesis
@@ -596,7 +596,12 @@ def decide_round(
             verdict += f": the best, {top.hypothesis.key}, {outcome}"
         fitted = [c for c in ranking if c.corrected is not None][:3]
         return SparseRound.unexplained_round(
-            model, tests, ranking, verdict, measure_next=_next(fitted, obs), dispersion=dispersion
+            model,
+            tests,
+            ranking,
+            verdict,
+            measure_next=_next(fitted, obs, settings.equivalence * dispersion),
+            dispersion=dispersion,
         )
     x = screen.states  # every 16th step
     chosen, equivalent, different = decide(good, named, model, x, obs.u[:, ::16])
@@ -637,7 +642,7 @@ def decide_round(
     )
     recommended, unfitted = [], unfitted if decision is Decision.NOT_IDENTIFIABLE else []
     if decision is Decision.NOT_IDENTIFIABLE:
-        recommended = _next([chosen, *undecided], obs) if undecided else []
+        recommended = _next(to_separate(chosen, undecided, ranking), obs, margin)
         keys = ", ".join(c.hypothesis.key for c in [chosen, *undecided])
         what = f"not identifiable: {keys} " + (
             "explain the measured channels equally well" if undecided else "fits best"
@@ -649,7 +654,7 @@ def decide_round(
             what += f", and the screen could not exclude {listed}, not fitted"
         what += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
     elif decision is Decision.UNEXPLAINED:
-        recommended = _next([chosen, *(c for c in ranking if c is not chosen and c.corrected is not None)][:3], obs)
+        recommended = _next(to_separate(chosen, [], ranking), obs, margin)
         what = (
             f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {unexplained} disagreeing beyond "
             "noise, so what is missing may be an explanation that did not fit here or more than one effect"
@@ -689,10 +694,10 @@ def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> b
     return small_form_error(chosen.explained, left, settings)
 
 
-def _next(candidates: Sequence[SparseCandidate], obs: Observations) -> list[Recommendation]:
+def _next(candidates: Sequence[SparseCandidate], obs: Observations, margin: float) -> list[Recommendation]:
     """What to measure to tell the first candidate from the others (:func:`..measure_next.measure_next`):
-    each seen through its corrected model, along the states its smoothed delta implies."""
-    return measure_next([(c.corrected, c.states) for c in candidates], obs)
+    each seen through its corrected model, along the states its smoothed delta implies; ``margin`` in BIC."""
+    return measure_next([(c.hypothesis.key, c.corrected, c.states) for c in candidates], obs, margin)
 
 
 def _budget_words(chosen: SparseCandidate, b: BudgetComparison) -> str:

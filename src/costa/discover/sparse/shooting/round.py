@@ -41,7 +41,7 @@ from ...core.naming import alike, removal
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, innovation_tests
-from ..measure_next import measure_next
+from ..measure_next import measure_next, to_separate
 from ..observations import Observations
 from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests
 from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit, states_eliminated
@@ -228,7 +228,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     order = paying + sorted((c for c in candidates.values() if c not in paying), key=lambda c: -c.bic_gain)
 
     def next_measured(chosen: Sequence[SparseCandidate]):
-        return measure_next([(c.corrected, c.states) for c in chosen], few)
+        return measure_next([(c.hypothesis.key, c.corrected, c.states) for c in chosen], few, MARGIN)
 
     if not ranking.order:
         verdict = (
@@ -263,12 +263,12 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             f"on {cells}, so what is missing may be an explanation that did not fit here or more than one effect; "
             f"the correction {effect}" + ("" if applied else f", less than {settings.min_explained:.0%}: not applied")
         )
-        recommended = next_measured([chosen, *(c for c in order if c is not chosen)][:3])
+        recommended = next_measured(to_separate(chosen, [], order))
         return SparseRound.unexplained_round(
             model, tests, order, verdict, measure_next=recommended, chosen=chosen if applied else None
         )
     if decision is Decision.NOT_IDENTIFIABLE:
-        recommended = next_measured([chosen, *rivals]) if rivals else []
+        recommended = next_measured(to_separate(chosen, rivals, order))
         keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
         verdict = (
             f"not identifiable: {keys} fit the measured channels on {cells} within {MARGIN:g} of BIC gain"
