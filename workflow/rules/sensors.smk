@@ -145,8 +145,8 @@ rule collect_sensors:
 
 
 rule discover_next:
-    """The closed loop: a sparse run that ended without a name, discovered again on its record with the
-    first round's top recommended measurement added (what was predicted and achieved in loop.json)."""
+    """The closed loop: a sparse run that ended without a name, discovered again with the first
+    round's top recommended measurement added (predicted and achieved in loop.json)."""
     input:
         before=out("discovery/{case}/sensors/{sensors}/findings.json"),
         train=out("discovery/{case}/sensors/{sensors}/data/train.parquet"),
