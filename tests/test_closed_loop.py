@@ -62,12 +62,18 @@ def test_the_loop_counts_the_right_names_it_gained_against_those_it_predicted():
         loop_row("drawn1", "partial", before, RECOMMENDED, right),
         loop_row("drawn2", "partial", before, RECOMMENDED, wrong),
         loop_row("drawn3", "partial", before, None, None),
+        loop_row("drawn4", "partial", right, None, None),  # named: not for the loop to decide
     ]
     table = loop_table(rows)
-    assert table["before"].tolist() == ["not identifiable, truth listed"] * 3
-    assert table["after"].tolist()[:2] == ["right", "wrong"] and table.added.isna().tolist() == [False, False, True]
+    assert table["before"].tolist() == ["not identifiable, truth listed"] * 3 + ["right"]
+    assert table["after"].tolist()[:2] == ["right", "wrong"] and table.added.isna().tolist() == [
+        False,
+        False,
+        True,
+        True,
+    ]
     summary = loop_summary(table).iloc[0]
-    assert (summary.without_a_name, summary.measurement_added, summary.names_given) == (3, 2, 2)
+    assert (summary.undecided, summary.measurement_added, summary.names_given) == (3, 2, 2)
     assert (summary.right_gained, summary.wrong_gained, summary.names_predicted) == (1, 1, pytest.approx(1.6))
     assert summary.median_achieved_separation == pytest.approx(10.0)  # both moved the difference by 100
     page = loop_markdown(loop_summary(table), table, "test")
@@ -75,6 +81,18 @@ def test_the_loop_counts_the_right_names_it_gained_against_those_it_predicted():
         "| partial | 3 | 2 | 1.6 / 2 | 1 [" in page
         and "| drawn3 | partial | not identifiable, truth listed | nothing" in page
     )
+
+
+def test_an_unexplained_run_is_judged_on_the_explanations_its_recommendation_separates():
+    """Unexplained, no correction applied: the achieved separation is read between the recommendation's best and
+    rival (their BIC difference moved from 5 to -95)."""
+    before = _findings(outcome="unexplained")
+    before["rounds"][0]["correction"] = None
+    before["rounds"][0]["alternatives"] = [{"hypothesis": "part:a", "bic_gain": 100.0}]
+    row = loop_row(
+        "drawn1", "plant", before, RECOMMENDED | {"best": "part:a"}, _findings(gains={"part:b": 195.0, "part:a": 100.0})
+    )
+    assert row["achieved_separation"] == pytest.approx(10.0)
 
 
 def test_a_channel_added_to_a_record_leaves_its_samples_as_they_were(default_config):

@@ -54,7 +54,7 @@ def loop_row(
     row: dict[str, Any] = {"case": case, "sensors": sensors, "before": judged(before), "added": None}
     if added is None or after is None:
         return row
-    best = (before["rounds"][0].get("correction") or {}).get("hypothesis")
+    best = added.get("best") or (before["rounds"][0].get("correction") or {}).get("hypothesis")
     return row | {
         "added": added["channel"], "every_s": added["every_s"], "rival": added.get("rival"),
         "predicted_separation": added["separation_noise_stds"], "predicted_name": added.get("name_probability"),
@@ -64,18 +64,23 @@ def loop_row(
     }  # fmt: skip
 
 
+#: the verdicts of a run that found an effect and named nothing (what a measurement should decide)
+UNDECIDED = ("unexplained", "not identifiable, truth listed", "not identifiable, truth not listed")
+
+
 def loop_summary(table: pd.DataFrame) -> pd.DataFrame:
-    """Per sensor set: the cases ending without a name, those given a measurement, the names predicted (the sum
-    of the chances) and given, right names gained with their Wilson interval, wrong names, and the median
-    predicted and achieved separations."""
+    """Per sensor set: the cases undecided (:data:`UNDECIDED`), those given a measurement, the names predicted
+    (the sum of the chances) and given, right names gained with their Wilson interval, wrong names, and the
+    median predicted and achieved separations."""
     rows = []
     for sensors, group in table.groupby("sensors", sort=False):
+        group = group[group.before.isin(UNDECIDED)]
         looped = group[group.added.notna()]
         named = looped[looped["after"].isin(["right", "wrong"])] if len(looped) else looped
         right = int((looped.get("after") == "right").sum()) if len(looped) else 0
         low, high = wilson(right, len(looped))
         rows.append({
-            "sensors": sensors, "without_a_name": len(group), "measurement_added": len(looped),
+            "sensors": sensors, "undecided": len(group), "measurement_added": len(looped),
             "names_predicted": float(looped.predicted_name.sum()) if len(looped) else 0.0, "names_given": len(named),
             "right_gained": right, "right_rate_low": low, "right_rate_high": high,
             "wrong_gained": len(named) - right,
@@ -88,12 +93,13 @@ def loop_summary(table: pd.DataFrame) -> pd.DataFrame:
 def loop_markdown(summary: pd.DataFrame, table: pd.DataFrame, split: str) -> str:
     """The loop's page: the summary per sensor set, then every case."""
     lines = [
-        f"The closed loop on the `{split}` seeds: each case that ended without a name, its first round's top "
+        f"The closed loop on the `{split}` seeds: each case that found an effect and named nothing (unexplained or "
+        "not identifiable), its first round's top "
         "recommendation added to its record and discovered again. Names predicted: the sum of each "
         "recommendation's chance of a name; separations in noise stds, the best explanation from its nearest "
         "rival (achieved: from how far their BIC gains moved apart).",
         "",
-        "| sensors | without a name | measurement added | names predicted / given | right gained (95 %) "
+        "| sensors | undecided | measurement added | names predicted / given | right gained (95 %) "
         "| wrong gained | separation predicted / achieved (medians) |",
         "|---|---|---|---|---|---|---|",
     ]
@@ -103,7 +109,7 @@ def loop_markdown(summary: pd.DataFrame, table: pd.DataFrame, split: str) -> str
             if r["measurement_added"] else "—"
         )  # fmt: skip
         lines.append(
-            f"| {r['sensors']} | {r['without_a_name']} | {r['measurement_added']} | {r['names_predicted']:.1f} / "
+            f"| {r['sensors']} | {r['undecided']} | {r['measurement_added']} | {r['names_predicted']:.1f} / "
             f"{r['names_given']} | {rate} | {r['wrong_gained']} | {r['median_predicted_separation']:.1f} / "
             f"{r['median_achieved_separation']:.1f} |"
         )

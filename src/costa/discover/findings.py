@@ -165,6 +165,7 @@ def _sparse_round(index: int, r: Round) -> dict[str, Any]:
                 "every_s": m.every_s,
                 "noise": m.noise,
                 "separation_noise_stds": round(m.separation, 1),
+                "best": m.best,
                 "rival": m.rival,
                 "name_probability": round(m.decides, 3),
             }
@@ -521,11 +522,17 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
     if r.get("measure_next"):
         lines += ["", "What to measure next, by the chance the added record names an explanation (and the expected "
                   "separation of the best from its nearest rival over this record's cells and hours, in noise stds):"]  # fmt: skip
+        if r["verdict"].startswith("unexplained"):  # none of them explains the record: the chance is a bound
+            lines += ["(Unexplained: the chances hold only if one of these explanations is the truth; in the "
+                      "benchmark's closed loop such rounds gained fewer names than predicted.)"]  # fmt: skip
         lines += [
             f"- `{m['channel']}` ({m['meaning']}) every {m['every_s']:g} s, noise {m['noise']:g}: "
             f"a name with probability {m['name_probability']:.2f}; {m['separation_noise_stds']:g} from `{m['rival']}`"
             for m in r["measure_next"]
         ]
+    elif r.get("measure_next") == [] and r["flagged"] and not r["named"]:
+        lines += ["", "What to measure next: nothing to recommend; fewer than two explanations were fitted, or no "
+                  "instrument a pot line can add (costa.sensors) samples a channel more often than this record does."]  # fmt: skip
     if r.get("at_term_budget"):
         lines += ["", "Against rivals with fewer terms, the correction cut to as many terms (named only if it still "
                   "leads by the equivalence margin):"]  # fmt: skip

@@ -16,8 +16,11 @@ log-likelihood ratio of two known means), so it clears the naming margin m with 
 Phi((d^2 - m) / (2 d)); the chance of a name is the mean over the explanations, each taken as the
 truth in turn (they fit the record alike), of the product over its rivals.  The separation of the
 first explanation from its nearest rival is reported beside it, the number a closed loop checks.
-A channel already measured as often is left out (a logged pot voltage counts as the cell voltage:
-it is U plus known constants).
+Only samples after the filter settles from a searched start count (:attr:`.Observations.settling_steps`,
+as in the channel tests): before it, the explanations' histories differ by their starts, which each
+would fit again to the new samples.  A channel already measured as often is left out (a logged pot
+voltage counts as the cell voltage: it is U plus known constants), and so is an instrument no more
+likely to decide than a slower one of the same channel.
 """
 
 from __future__ import annotations
@@ -40,13 +43,14 @@ __all__ = ["Recommendation", "decides", "measure_next", "sampled_every", "to_sep
 @dataclass(frozen=True)
 class Recommendation:
     """Measuring ``channel`` every ``every_s`` seconds with noise ``noise`` would separate the
-    first explanation from its nearest rival, ``rival`` (a hypothesis key), by ``separation`` noise
-    stds, and name one of the explanations with probability ``decides``."""
+    first explanation, ``best``, from its nearest rival, ``rival`` (hypothesis keys), by ``separation``
+    noise stds, and name one of the explanations with probability ``decides``."""
 
     channel: str
     every_s: float
     noise: float
     separation: float
+    best: str
     rival: str
     decides: float
 
@@ -123,13 +127,22 @@ def measure_next(
             continue
         stride = max(1, round(sensor.every_s / obs.dt))
         c = channels.index(sensor.channel)
-        sampled = [v[:, ::stride, c] / sensor.noise for v in values]
+        sampled = [v[:, obs.settling_steps :: stride, c] / sensor.noise for v in values]
         d = np.array([[_separation(a - b) for b in sampled] for a in sampled])
         nearest = 1 + int(np.argmin(d[0, 1:]))
         found.append(
             Recommendation(
                 channel=sensor.channel, every_s=sensor.every_s, noise=sensor.noise, separation=float(d[0, nearest]),
-                rival=explanations[nearest][0], decides=decides(d, margin),
+                best=explanations[0][0], rival=explanations[nearest][0], decides=decides(d, margin),
             )
         )  # fmt: skip
-    return sorted(found, key=lambda r: (-r.decides, -r.separation))[:top]
+    return _undominated(sorted(found, key=lambda r: (-r.decides, -r.separation, -r.every_s)))[:top]
+
+
+def _undominated(ranked: Sequence[Recommendation]) -> list[Recommendation]:
+    """``ranked`` without the instruments a slower one of the same channel, ranked before, matches."""
+    kept: list[Recommendation] = []
+    for r in ranked:
+        if not any(k.channel == r.channel and k.every_s >= r.every_s for k in kept):
+            kept.append(r)
+    return kept
