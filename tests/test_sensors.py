@@ -74,6 +74,20 @@ def test_a_pot_line_logs_the_pot_voltage_of_4_2_volts(truth):
     assert np.median(pot[near]) == pytest.approx(4.2, abs=0.1)
 
 
+def test_a_pot_voltage_outside_its_plausible_range_is_left_empty(truth):
+    """A plant's log holds no pot voltage outside 2.5-7 V (an anode effect, a logging error): the data
+    contract refuses one, so a simulated record leaves such a sample empty and keeps the rest."""
+    x, u = truth[0][:, :50].copy(), truth[1][:, :50].copy()
+    u[:, 10:13, 1] = 1.2e6  # the external drop alone, 6.8e-6 V/A, puts these steps above 7 V
+    table = measure(
+        true_model(), x, u, 10.0, SensorSet("pot", (Sensor("U_pot", 10.0, 0.005),)), np.random.default_rng(0)
+    )
+    pot = table["U_pot"].to_numpy().reshape(x.shape[:2])
+    assert np.isnan(pot[:, 10:13]).all()
+    kept = np.delete(pot, [10, 11, 12], axis=1)
+    assert np.isfinite(kept).all() and ((kept > 2.5) & (kept < 7.0)).all()
+
+
 def test_the_pot_voltage_beyond_the_bath_is_a_measurement_not_physics(truth):
     """Another back EMF or external resistance shifts U_pot by exactly their change and no balance."""
     from costa.config import load_config

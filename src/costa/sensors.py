@@ -8,7 +8,9 @@ fractions ``c2``, ``c3`` [-], or the metal a tap removed as the crane scale weig
 many seconds (or at each tap, :data:`AT_TAPS`), and with what Gaussian noise (absolute,
 in the channel's unit).  :func:`measure` turns a simulated truth into the tidy table a
 plant would log: inputs at every step (they are logged commands), each measured
-channel at its own samples and NaN in between, unmeasured channels absent.
+channel at its own samples and NaN in between, unmeasured channels absent; a sample outside
+the channel's plausible range (:data:`costa.variables.PLAUSIBLE_RANGE`: a pot voltage outside
+2.5-7 V) is left empty, as a plant's log leaves it.
 
 A set may *vary* (:class:`RecordVariation`): each drawn case of the discovery benchmark then
 draws its record from its seed (how its cells are run, how long, how often the hand-sampled
@@ -33,7 +35,7 @@ import pandas as pd
 from .data import to_table
 from .observe import observe
 from .physics import CellModel
-from .variables import CHANNELS, INPUTS, STATES
+from .variables import CHANNELS, INPUTS, PLAUSIBLE_RANGE, STATES
 
 __all__ = [
     "AT_TAPS",
@@ -198,10 +200,15 @@ def _noisy(
     default_noise: Mapping[str, float] | None,
     rng: np.random.Generator,
 ) -> np.ndarray:
-    """(n, K, C) the sensors' channels with their Gaussian noise, drawn as one array."""
+    """(n, K, C) the sensors' channels with their Gaussian noise, drawn as one array; NaN outside a
+    channel's plausible range."""
     values = observe(model, x, u, [s.channel for s in sensors])
     noise = np.array([_noise(sensor, set_name, default_noise) for sensor in sensors])
-    return values + rng.normal(size=values.shape) * noise
+    noisy = values + rng.normal(size=values.shape) * noise
+    for c, sensor in enumerate(sensors):
+        low, high = PLAUSIBLE_RANGE.get(sensor.channel, (-np.inf, np.inf))
+        noisy[..., c] = np.where((noisy[..., c] < low) | (noisy[..., c] > high), np.nan, noisy[..., c])
+    return noisy
 
 
 def tap_starts(u: np.ndarray) -> np.ndarray:
