@@ -172,19 +172,20 @@ def test_rates_count_names_right_over_names_given_and_over_effects():
     assert curve.effects.tolist() == [4, 2, 2, 2] and curve.right.tolist() == [1, 1, 2, 2]
 
 
-def test_a_findings_page_quotes_the_published_test_rates_of_its_route_and_nothing_else(tmp_path):
-    """The plant and pot line sets for the shooting route, in words with their intervals; a dev run's
+def test_a_findings_page_quotes_the_published_test_rates_of_records_sampled_alike_and_nothing_else(tmp_path):
+    """The plant set's for a record sampled as a plant's, in words with their intervals; a dev run's
     rates are never quoted, and without a published file a page says nothing."""
     verdicts = ["right"] * 3 + ["wrong"] + ["missed"] * 2
     table = pd.DataFrame({"sensors": ["plant"] * 6 + ["pot_line"] * 6, "verdict": verdicts * 2, "kind": "term",
                           "seconds": 1.0, "signal": [500.0, 500, 50, 500, 500, 5] * 2})  # fmt: skip
     published = tmp_path / "rates.csv"
     rates(table).assign(split=["test", "dev"], size="quick").to_csv(published, index=False)
-    (sentence,) = how_often_right("shooting", published)
+    (sentence,) = how_often_right("plant", published)
     low, high = wilson(3, 4)
     assert sentence.startswith("on the benchmark's plant records (6 drawn cases of its test seeds, quick size)")
     assert f"a name was right in 3 of 4 (75%, 95 % interval {low:.0%}-{high:.0%})" in sentence
     assert sentence.endswith("effects above 100 noise units were named right in 2 of 4 (50%, 95 % interval 15%-85%)")
+    assert how_often_right("pot_line", published) == []  # a dev run's
     assert how_often_right("full", published) == [] and how_often_right("full", tmp_path / "none.csv") == []
 
 

@@ -47,13 +47,16 @@ def test_the_shipped_sensor_sets_take_their_documented_routes(default_config):
     on 2 cells, without the set saying so; regimes as declared (a shipped case's record): as pot_line."""
     sets = default_config["discovery"]["sensor_sets"]
     routes = {name: choose_route(_declared(s), dt_s=DT) for name, s in sets.items()}
-    assert {name: (r.name, r.shooting_cells) for name, r in routes.items()} == {
-        "full": ("full_state", 0),
-        "partial": ("filter", 0),
-        "plant": ("shooting", SHOOTING_CELLS),
-        "pot_line": ("filter", 0),
-        "regimes": ("filter", 0),
+    assert {name: (r.name, r.shooting_cells, r.records) for name, r in routes.items()} == {
+        "full": ("full_state", 0, "full"),
+        "partial": ("filter", 0, "partial"),
+        "plant": ("shooting", SHOOTING_CELLS, "plant"),
+        "pot_line": ("filter", 0, "pot_line"),
+        "regimes": ("filter", 0, "pot_line"),
     }
+    # a pot line's record quotes the pot line's rates, whichever route a user chooses for it
+    assert choose_route(DAILY, dt_s=DT, shooting_cells=2).records == "pot_line"
+    assert choose_route(HOURLY_AND_SHIFT, dt_s=DT, shooting_cells=0).records == "plant"
 
 
 @pytest.mark.parametrize("name", ["full", "partial", "plant", "pot_line"])

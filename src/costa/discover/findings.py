@@ -306,7 +306,7 @@ def findings(
         **extra,
         "starting_model": start.name,
         "outcome": outcome,
-        "how_often_right": how_often_right(result.rounds[0].route if partial else "full"),
+        "how_often_right": how_often_right(result.records),
         **measured,
         "named": named,
         "noise_estimate": noise,

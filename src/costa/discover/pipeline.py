@@ -198,5 +198,8 @@ def run_discovery(
         )
     # every route's names, settled once its rounds have run (:func:`.core.naming.settled`)
     return replace(
-        result, rounds=settled(result.rounds), constant_inputs=constant_inputs(train[list(INPUTS)].to_numpy())
+        result,
+        rounds=settled(result.rounds),
+        constant_inputs=constant_inputs(train[list(INPUTS)].to_numpy()),
+        records=route.records,
     )

@@ -33,11 +33,15 @@ COMPOSITION = ("c2", "c3")
 @dataclass(frozen=True, kw_only=True)
 class Route:
     """The route ``name`` ("full_state", "filter" or "shooting"), the cells a shooting round fits
-    (0 on the other routes) and ``why``, one phrase for the log."""
+    (0 on the other routes), ``why``, one phrase for the log, and ``records``: the benchmark's sensor
+    set whose records are sampled alike (every state: "full"; the composition logged, or no hand
+    samples: "partial"; hand samples every shift or more often: "plant"; rarer: "pot_line"), whose
+    rates a findings page quotes."""
 
     name: str
     shooting_cells: int = 0
     why: str
+    records: str
 
 
 def choose_route(intervals: Mapping[str, float], *, dt_s: float, shooting_cells: int | None = None) -> Route:
@@ -47,20 +51,24 @@ def choose_route(intervals: Mapping[str, float], *, dt_s: float, shooting_cells:
     for it; 0: never).  A channel sampled at least every :data:`LOGGED_S` is logged, any other
     state or composition channel hand-sampled."""
     if all(intervals.get(s) == dt_s for s in STATES):
-        return Route(name="full_state", why="every state at every step")
+        return Route(name="full_state", why="every state at every step", records="full")
     logged = {c for c, every in intervals.items() if every <= LOGGED_S}
-    if logged.issuperset(COMPOSITION):
-        return Route(name="filter", why="the composition logged")
-    if shooting_cells == 0:
-        return Route(name="filter", why="shooting_cells: 0")
-    if shooting_cells is not None:
-        return Route(name="shooting", shooting_cells=shooting_cells, why=f"shooting_cells: {shooting_cells}")
     hand = [intervals[c] for c in (*STATES, *COMPOSITION) if c in intervals and c not in logged]
+    rare = not all(np.isfinite(hand)) or max(hand, default=0.0) > SHIFT_S
+    records = "partial" if logged.issuperset(COMPOSITION) or not hand else "pot_line" if rare else "plant"
+    if logged.issuperset(COMPOSITION):
+        return Route(name="filter", why="the composition logged", records=records)
+    if shooting_cells == 0:
+        return Route(name="filter", why="shooting_cells: 0", records=records)
+    if shooting_cells is not None:
+        why = f"shooting_cells: {shooting_cells}"
+        return Route(name="shooting", shooting_cells=shooting_cells, why=why, records=records)
     if not hand:
-        return Route(name="filter", why="no hand samples")
-    if not all(np.isfinite(hand)) or max(hand) > SHIFT_S:
-        return Route(name="filter", why="hand samples rarer than one a shift (8 h)")
-    return Route(name="shooting", shooting_cells=SHOOTING_CELLS, why="hand samples every shift (8 h) or more often")
+        return Route(name="filter", why="no hand samples", records=records)
+    if rare:
+        return Route(name="filter", why="hand samples rarer than one a shift (8 h)", records=records)
+    why = "hand samples every shift (8 h) or more often"
+    return Route(name="shooting", shooting_cells=SHOOTING_CELLS, why=why, records=records)
 
 
 def record_route(tables: list[pd.DataFrame], dt_s: float, shooting_cells: int | None = None) -> Route:

@@ -95,6 +95,7 @@ class Outcome:
     channels: tuple[str, ...] = ()  # partial: the measured channels
     start_steps: int = 0  # partial: the first samples of each held-out cell, which place its first state
     restart_steps: int | None = None  # partial: the gap's forecasts restarted every this many steps
+    records: str = "full"  # the benchmark's sensor set sampled as these data are (:attr:`..route.Route.records`)
 
 
 def compared_models(rounds: Sequence[Round], start: CellModel) -> dict[str, CellModel]:
