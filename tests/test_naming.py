@@ -127,3 +127,33 @@ def test_a_name_a_later_round_does_not_confirm_is_withdrawn(model):
     unexplained = round_(("x5",), "input:u4", decision=Decision.UNEXPLAINED)
     unexplained.chosen = None
     assert settled([first, unexplained])[0] is first
+
+
+def test_a_part_in_the_voltage_chain_is_named_only_where_the_parts_it_stands_for_were_fitted(model):
+    """U = g5 + u2 u5 / (2620 g2), g5 = 3.8168e-6 g3 g4 u2 / (g2 (1 - g3)), and nothing else reads g2..g5:
+    a correction of any of them is, point by point, one of the cell voltage U, and any correction of U
+    one of each of g2..g5 (the bubble voltage g5 and U move the cell identically, so a fit of one
+    stands for both).  With free corrections no measurement tells them apart, so a name in the chain
+    stands only where the others were fitted; the liquidus temperature, read by the freezing rate and
+    the ledge's heat flows, is in no chain, nor are flows, inputs and properties."""
+    from costa.discover.core.naming import chain, unfitted_chain
+
+    x, u = operating_points(np.random.default_rng(0), 20)
+    h = {h.key: h for h in candidate_hypotheses(model)}
+    voltage = ["bath_conductivity", "bubble_coverage", "bubble_thickness", "bubble_voltage", "cell_voltage"]
+    for part in voltage:
+        assert chain(part, model, x, u) == [p for p in voltage if p != part], part
+    assert chain("liquidus_temperature", model, x, u) == []
+
+    def keys(hypotheses):
+        return [g.key for g in hypotheses]
+
+    thickness = h["part:bubble_thickness"]
+    assert keys(unfitted_chain(thickness, [], model, x, u)) == [
+        "part:bath_conductivity", "part:bubble_coverage", "part:bubble_voltage", "part:cell_voltage",
+    ]  # fmt: skip
+    fitted = [h["part:cell_voltage"], h["part:bath_conductivity"], h["term:bath_energy"]]
+    assert keys(unfitted_chain(thickness, fitted, model, x, u)) == ["part:bubble_coverage"]
+    assert unfitted_chain(thickness, [*fitted, h["part:bubble_coverage"]], model, x, u) == []
+    for other in ("part:liquidus_temperature", "term:bath_energy", "input:u2", "property:bath_heat_capacity"):
+        assert unfitted_chain(h[other], [], model, x, u) == [], other

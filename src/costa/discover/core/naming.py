@@ -15,8 +15,8 @@ from .outcome import Decision, Round
 from .settings import DiscoverySettings
 
 __all__ = [
-    "alike", "balance_moved", "causes_through", "conclude", "decide", "fit_outcome", "naming_order", "removal",
-    "same_physics", "settled", "small_form_error",
+    "alike", "balance_moved", "causes_through", "chain", "conclude", "decide", "fit_outcome", "naming_order",
+    "removal", "same_physics", "settled", "small_form_error", "unfitted_chain",
 ]  # fmt: skip
 
 #: two corrections whose changes of the state rates differ by less than this share are the same physics
@@ -228,6 +228,42 @@ def causes_through(part: str, model: CellModel, x: np.ndarray, u: np.ndarray) ->
         if np.isfinite(moved).all() and (moved != 0).all():
             causes.append(cause)
     return causes
+
+
+def chain(part: str, model: CellModel, x: np.ndarray, u: np.ndarray) -> list[str]:
+    """The parts no measurement tells from ``part`` by a free correction, in the order computed: those
+    that act on the cell only through it (:func:`causes_through`), those it acts on the cell only
+    through (each later part that has it among its causes), and so on from each of them.  A
+    correction of one is, point by point, a correction of each other, so only their closed forms
+    tell them apart: the bubbles' thickness acts on the cell only through the cell voltage, which
+    the bath conductivity alone moves too, so the conductivity's law is a law of the thickness."""
+    reads = {q: causes_through(q, model, x, u) for q in PART_ORDER}
+    linked, frontier = {part}, [part]
+    while frontier:
+        p = frontier.pop()
+        for q in [*reads[p], *(q for q in PART_ORDER if p in reads[q])]:
+            if q not in linked:
+                linked.add(q)
+                frontier.append(q)
+    return [q for q in PART_ORDER if q in linked and q != part]
+
+
+def unfitted_chain(
+    chosen: Hypothesis, fitted: Sequence[Hypothesis], model: CellModel, x: np.ndarray, u: np.ndarray
+) -> list[Hypothesis]:
+    """The parts of ``chosen``'s :func:`chain` (a part's; none for other kinds) that act unlike ``chosen``
+    and every hypothesis ``fitted`` (:func:`.hypotheses.same_sensitivity`: a fit of the bubble voltage is
+    one of the cell voltage, which moves the cell identically): each explains the data at least as well
+    as ``chosen`` with a free correction, so a name stands only where every one was fitted and lost by
+    the margin (every route's rule; the full-state route fits them all).  States x (..., 8), inputs u
+    (..., 5)."""
+    if chosen.kind != "part":
+        return []
+    parts = (
+        Hypothesis(key=f"part:{name}", kind="part", target=name, unit=model.parts[name].unit)
+        for name in chain(chosen.target, model, x.reshape(-1, 8), u.reshape(-1, 5))
+    )
+    return [p for p in parts if not any(same_sensitivity(p, h, model) for h in (chosen, *fitted))]
 
 
 def fit_outcome(fitted: bool, explained: float, scored: bool) -> str:

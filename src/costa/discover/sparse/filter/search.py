@@ -52,7 +52,7 @@ from ....physics import CellModel
 from ...core.fitted_terms import KEEP_LEVEL, weakest_term
 from ...core.hypotheses import Hypothesis, candidate_hypotheses, same_sensitivity
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ...core.naming import alike, conclude, decide, fit_outcome, naming_order, removal, small_form_error
+from ...core.naming import alike, conclude, decide, fit_outcome, naming_order, removal, small_form_error, unfitted_chain
 from ...core.outcome import Decision
 from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
@@ -65,6 +65,7 @@ from .likelihood import likelihood_gains, mostly_lost, refine_coefficients, scor
 __all__ = [
     "Screen",
     "at_budget",
+    "chained",
     "could_explain_as_well",
     "decide_round",
     "discover_sparse",
@@ -268,6 +269,25 @@ def distinct_physics(
                 "fitted once as %s, the same physics: %s", first.hypothesis.key, [scores[i].hypothesis.key for i in g]
             )
     return kept
+
+
+def chained(
+    candidates: Sequence[HypothesisScore], screened: Sequence[HypothesisScore], model: CellModel, x, u
+) -> list[HypothesisScore]:
+    """The ``screened`` hypotheses of the part candidates' chains (:func:`...core.naming.chain`) that are
+    not candidates, one of each sensitivity: with a free delta each explains the data as well as the
+    candidate, so no screen can exclude them and only their closed forms tell them apart (on
+    conductivity_alf3's pot-line record the bubbles' coverage screened first, the bath conductivity
+    it stands for was not fitted).  A round fits them beside the candidates."""
+    by_key = {s.hypothesis.key: s for s in screened if np.isfinite(s.log_likelihood_gain)}
+    added: list[HypothesisScore] = []
+    for c in candidates:
+        for h in unfitted_chain(c.hypothesis, [d.hypothesis for d in [*candidates, *added]], model, x, u):
+            if h.key in by_key and not any(same_sensitivity(h, a.hypothesis, model) for a in added):
+                added.append(by_key[h.key])
+    if added:
+        log.info("fitted beside the candidates, their chains: %s", [a.hypothesis.key for a in added])
+    return added
 
 
 def other_physics(
@@ -531,6 +551,7 @@ def screen_round(
     seed = int(rng.integers(2**63))
     screen_x, screen_u = (a[:, ::16].reshape(-1, a.shape[-1]) for a in (few_states, few.u))
     candidates = distinct_physics(best_screened(screened, settings), model, screen_x, screen_u, named)
+    candidates += chained(candidates, screened, model, screen_x, screen_u)
     return Screen(
         tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=candidates, seed=seed,
         others=other_physics(screened, candidates, model, screen_x, screen_u), screened=len(few.y),
@@ -637,10 +658,15 @@ def decide_round(
         for h in could_explain_as_well(chosen, screen, settings.equivalence * dispersion)
         if not same_sensitivity(h, chosen.hypothesis, model)
     ]
+    fitted = [c.hypothesis for c in ranking if c.features]
+    chained = [h for h in unfitted_chain(chosen.hypothesis, fitted, model, x, obs.u[:, ::16]) if h not in unfitted]
     decision = conclude(
-        left=bool(unexplained), tolerated=_small_form_error(chosen, settings), undecided=bool(undecided or unfitted)
+        left=bool(unexplained),
+        tolerated=_small_form_error(chosen, settings),
+        undecided=bool(undecided or unfitted or chained),
     )
-    recommended, unfitted = [], unfitted if decision is Decision.NOT_IDENTIFIABLE else []
+    recommended = []
+    unfitted = unfitted + chained if decision is Decision.NOT_IDENTIFIABLE else []
     if decision is Decision.NOT_IDENTIFIABLE:
         recommended = _next(to_separate(chosen, undecided, ranking), obs, margin)
         keys = ", ".join(c.hypothesis.key for c in [chosen, *undecided])
@@ -649,9 +675,12 @@ def decide_round(
         )
         if matched:
             what += " (" + "; ".join(_budget_words(chosen, b) for b in budget if b.matched) + ")"
-        if unfitted:
-            listed = ", ".join(h.key for h in unfitted)
+        if len(unfitted) > len(chained):
+            listed = ", ".join(h.key for h in unfitted if h not in chained)
             what += f", and the screen could not exclude {listed}, not fitted"
+        if chained:
+            listed = ", ".join(h.key for h in chained)
+            what += f", and {listed}, through which alone it acts or which act alone through it, not fitted"
         what += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
     elif decision is Decision.UNEXPLAINED:
         recommended = _next(to_separate(chosen, [], ranking), obs, margin)

@@ -8,8 +8,10 @@ composition not logged at every step), the first round runs:
 2. on the first ``shooting_cells`` cells, the uncorrected model fitted by multiple shooting
    (:mod:`.fit`) and every hypothesis' closed form of at most three terms screened
    linearised at that fit (:func:`.screen.screen_forms`); the ``shooting_refine`` best by
-   BIC gain and the ``shooting_refine`` best by the channels' predicted excess go on, and every
-   other the screen cannot exclude (:func:`not_excluded`), to ``shooting_fits`` fits in all;
+   BIC gain and the ``shooting_refine`` best by the channels' predicted excess go on, with the parts
+   of their chains (:func:`...core.naming.chain`: with free corrections, one explains the data as well
+   as another), and every other the screen cannot exclude (:func:`not_excluded`), to ``shooting_fits``
+   fits in all;
 3. each of those fitted by shooting through the continuity stages to the filter's process noise
    (separate jobs: :mod:`..split`), with its coefficients' covariance and channel tests;
 4. the fits ranked (:func:`.screen.ranked_fits`): the first is named where it leaves every
@@ -17,7 +19,8 @@ composition not logged at every step), the first round runs:
    other physics comes within :data:`.screen.MARGIN` of its BIC gain; a fit of other physics
    within it leaves the round undecided; one that leaves a channel beyond its noise unexplained;
    a hypothesis the screen could not exclude and that was not fitted, of other physics than the
-   first, leaves it undecided too (listed: a name stands only where every such one was fitted).
+   first, or a part of the first's chain that was not fitted, leaves it undecided too (listed: a
+   name stands only where every such one was fitted).
    The best correction is applied either way where it removes at least ``min_explained`` of the
    excess, as on the filter route.
 
@@ -35,9 +38,9 @@ from types import SimpleNamespace
 import numpy as np
 
 from ....physics import CellModel
-from ...core.hypotheses import Hypothesis, candidate_hypotheses
+from ...core.hypotheses import Hypothesis, candidate_hypotheses, same_sensitivity
 from ...core.library import constant_inputs
-from ...core.naming import alike, removal
+from ...core.naming import alike, removal, unfitted_chain
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, innovation_tests
@@ -122,6 +125,12 @@ def screened_forms(
     )
     top = settings.shooting_refine
     chosen = {id(f): f for f in forms[:top] + by_excess(forms)[:top] if f.features}
+    x, u = base.starts.reshape(-1, 8), few.u[:, :: round(SEGMENT_S / few.dt)].reshape(-1, 5)
+    by_key = {f.hypothesis.key: f for f in forms if f.features}
+    for form in list(chosen.values()):  # the chains of the part candidates (:func:`...core.naming.chain`)
+        for h in unfitted_chain(form.hypothesis, [f.hypothesis for f in chosen.values()], model, x, u):
+            if h.key in by_key and not any(same_sensitivity(h, f.hypothesis, model) for f in chosen.values()):
+                chosen[id(by_key[h.key])] = by_key[h.key]
     for form in not_excluded(forms, settings.shooting_window):
         if len(chosen) >= settings.shooting_fits:
             break
@@ -254,6 +263,8 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             u,
         )  # fmt: skip
     ]
+    chain = unfitted_chain(chosen.hypothesis, [f.hypothesis for f in screen.candidates], model, x, u)
+    unfitted += [h for h in chain if h not in unfitted]
     decision = ranking.decision(unfitted=bool(unfitted))
     left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
     if decision is Decision.UNEXPLAINED:

@@ -23,7 +23,7 @@ import numpy as np
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from ...core.naming import balance_moved, causes_through, conclude, decide, naming_order, small_form_error
+from ...core.naming import balance_moved, conclude, decide, naming_order, small_form_error
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..observations import Observations
@@ -213,8 +213,7 @@ class Ranking:
     same physics as it (itself included), in the order they are named (:func:`...core.naming.naming_order`:
     the cause before its consequences, an input before a part), and ``rivals`` are not; ``names``: the
     keys named, in that order, with the flow missing from a balance that the first amounts to
-    (:func:`...core.naming.balance_moved`) and the parts that act on the cell only through the part it
-    corrects (:func:`...core.naming.causes_through`), where no fit of them is among them."""
+    (:func:`...core.naming.balance_moved`), where no fit of it is among them."""
 
     order: list[FittedForm]
     equivalent: list[FittedForm]
@@ -257,9 +256,8 @@ def ranked_fits(
     says so: on top_heat_loss a constant 20.6 kW taken from the bath's heat of freezing was the best fit
     of the bath's heat loss.  Not a property: a bath heat capacity 10 % lower changes the bath energy's
     rate alone, and is that property, not a missing flow (it was named wrongly so on bath_heat_capacity).
-    Likewise, where the first corrects a part that other parts act through alone
-    (:func:`...core.naming.causes_through`), those causes are named with it, the cause first: the
-    conductivity law of conductivity_alf3 at another seed was best fitted as the cell voltage's."""
+    A part of the voltage's chain (:func:`...core.naming.chain`) is not named for the others: a round
+    fits each, and leaves the first undecided where one was not fitted (:mod:`.round`)."""
     settings = settings or DiscoverySettings()
 
     def good(f: FittedForm) -> bool:
@@ -278,8 +276,6 @@ def ranked_fits(
     keys = [f.hypothesis.key for f in named]
     balance = balance_moved(first.corrected, model, x, u) if first.hypothesis.is_flow else None
     also = [f"term:{balance}"] if balance is not None else []
-    if first.hypothesis.kind == "part":
-        also += [f"part:{cause}" for cause in causes_through(first.hypothesis.target, model, x, u)]
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     also = [key for key in also if key not in keys and key in hypotheses]
     if also:
