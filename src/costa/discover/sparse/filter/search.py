@@ -660,6 +660,8 @@ def decide_round(
     ]
     fitted = [c.hypothesis for c in ranking if c.features]
     chained = [h for h in unfitted_chain(chosen.hypothesis, fitted, model, x, obs.u[:, ::16]) if h not in unfitted]
+    if chained:
+        log.info("%s: the parts of its chain %s were not fitted", chosen.hypothesis.key, [h.key for h in chained])
     decision = conclude(
         left=bool(unexplained),
         tolerated=_small_form_error(chosen, settings),

@@ -31,6 +31,7 @@ route decides one round.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
@@ -54,6 +55,8 @@ __all__ = [
     "ShotFit", "ShotScreen", "by_excess", "decide_by_shooting", "fit_by_shooting", "not_excluded",
     "screen_by_shooting", "screened_forms", "shooting_cells",
 ]  # fmt: skip
+
+log = logging.getLogger(__name__)
 
 #: the segments' length [s]
 SEGMENT_S = 3600.0
@@ -131,6 +134,7 @@ def screened_forms(
         for h in unfitted_chain(form.hypothesis, [f.hypothesis for f in chosen.values()], model, x, u):
             if h.key in by_key and not any(same_sensitivity(h, f.hypothesis, model) for f in chosen.values()):
                 chosen[id(by_key[h.key])] = by_key[h.key]
+                log.info("fitted beside the candidates, of %s's chain: %s", form.hypothesis.key, h.key)
     for form in not_excluded(forms, settings.shooting_window):
         if len(chosen) >= settings.shooting_fits:
             break
@@ -264,6 +268,8 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         )  # fmt: skip
     ]
     chain = unfitted_chain(chosen.hypothesis, [f.hypothesis for f in screen.candidates], model, x, u)
+    if chain:
+        log.info("%s: the parts of its chain %s were not fitted", chosen.hypothesis.key, [h.key for h in chain])
     unfitted += [h for h in chain if h not in unfitted]
     decision = ranking.decision(unfitted=bool(unfitted))
     left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
