@@ -668,6 +668,34 @@ def test_hypotheses_of_the_same_physics_are_fitted_once_as_the_one_named_first()
     ]
 
 
+def test_a_candidate_of_the_voltages_chain_is_fitted_with_the_rest_of_its_chain():
+    """The bubbles' coverage screened best: the bath conductivity, the bubbles' thickness and their
+    voltage (or the cell voltage, which moves the cell as the bubble voltage does: one fit for both)
+    explain the data as well with a free delta, so each is fitted beside it, whatever its screened
+    gain; a flow candidate brings no chain, and a part already a candidate is not fitted twice."""
+    from costa.discover.sparse.filter.search import chained
+    from costa.discover.sparse.observed import NOMINAL_STATE
+    from costa.discover.sparse.rounds import HypothesisScore
+
+    model = true_model()
+    by_key = {h.key: h for h in candidate_hypotheses(model)}
+
+    def score(key: str, gain: float) -> HypothesisScore:
+        return HypothesisScore(hypothesis=by_key[key], scale=1e-3, walk=0.0, log_likelihood_gain=gain)
+
+    keys = ["part:bubble_coverage", "term:bath_energy", "part:cell_voltage", "part:bubble_voltage"]
+    keys += ["part:bath_conductivity", "part:bubble_thickness", "part:liquidus_temperature"]
+    screened = [score(k, 100.0 - i) for i, k in enumerate(keys)]
+    rng = np.random.default_rng(2)
+    x = NOMINAL_STATE * (1 + 0.02 * rng.standard_normal((30, 8)))
+    u = np.array([2.0, 140000.0, 0.1, 0.0, 0.05]) * (1 + 0.02 * rng.random((30, 5)))
+    added = [s.hypothesis.key for s in chained(screened[:2], screened, model, x, u)]
+    assert added == ["part:bath_conductivity", "part:bubble_thickness", "part:bubble_voltage"]
+    assert chained([screened[1]], screened, model, x, u) == []
+    with_thickness = [s.hypothesis.key for s in chained([screened[0], screened[5]], screened, model, x, u)]
+    assert with_thickness == ["part:bath_conductivity", "part:bubble_voltage"]
+
+
 def test_a_trajectory_whose_filter_was_lost_leaves_the_closed_form_to_the_others():
     """delta(t) = -0.002 - 0.02 (c3 - 0.11) [kg/s] in the AlF3 balance, smoothed on four cells of
     which one filter was lost an hour in (its states overflow, then turn NaN): the regression
