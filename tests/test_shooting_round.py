@@ -67,10 +67,11 @@ def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_conf
     assert terms["1"] == pytest.approx(-20570.0, rel=0.05), terms
 
 
-def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | None = None):
+def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | None = None, cells: int = 2):
     """A plant round whose screen put ``term:bath_energy`` (one constant) first, at a BIC gain of 490,
     fitted to remove ``removed`` of the voltage's 2 noise variances in excess; ``unfitted``: another
-    hypothesis screened with a constant at the given BIC gain, not fitted."""
+    hypothesis screened with a constant at the given BIC gain, not fitted; ``cells``: the record's cells
+    to learn from (2: only those the round fits)."""
     from costa.discover.core.settings import DiscoverySettings
     from costa.discover.sparse.innovations import ChannelTest
     from costa.discover.sparse.observed import NOMINAL_STATE
@@ -78,7 +79,7 @@ def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | No
     from costa.discover.sparse.shooting.screen import ScreenedForm
 
     config = copy.deepcopy(config)
-    config["discovery"]["sensor_sets"]["plant"].update(hours=2, trajectories=2, held_out_trajectories=1)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=2, trajectories=cells, held_out_trajectories=1)
     train, _ = case_tables(config, "no_effect", "plant")
     obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "plant")
     model = starting_model(config, "full")
@@ -106,7 +107,7 @@ def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | No
         )  # fmt: skip
 
     base = shot([], 1000.0, 3.0)  # 2 noise variances in excess
-    fit = shot([-100.0], 500.0, 3.0 - 2.0 * removed)
+    fit = shot([-1e6], 500.0, 3.0 - 2.0 * removed)  # a megawatt less heat in the bath
     flagged = ChannelTest(
         channel="U_cell",
         samples=samples["U_cell"],
@@ -153,3 +154,13 @@ def test_a_name_stands_only_where_every_hypothesis_the_screen_cannot_exclude_was
     assert [h.key for h in decided.not_fitted] == ([] if named else ["property:ledge_area"])
     if not named:
         assert "the screen could not exclude property:ledge_area, not fitted" in decided.verdict
+
+
+def test_a_correction_fitted_on_the_first_cells_is_not_named_where_the_other_cells_reject_it(default_config):
+    """The bath's heat loss fitted on the first two cells of a record with nothing missing: named where the
+    record has no other cell, unexplained and not applied where a third cell's own measurements reject
+    it (a megawatt taken from its bath: an effect missing from the model is missing from every cell)."""
+    assert _decided_by_one_fit(default_config, 1.0).named is not None
+    decided = _decided_by_one_fit(default_config, 1.0, cells=3)
+    assert decided.named is None and decided.chosen is None
+    assert "term:bath_energy, does not hold on the other cells" in decided.verdict, decided.verdict
