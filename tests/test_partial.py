@@ -454,7 +454,7 @@ def test_likelihood_gains_count_only_where_the_base_holds_and_record_what_it_los
     """Where the uncorrected model's filter diverges, no difference from it is evidence: there the
     models are compared with the best of them, a model that loses a trajectory gains minus
     infinity, and the trajectories a model holds where the base diverged are counted apart."""
-    from costa.discover.sparse.filter.likelihood import likelihood_gains
+    from costa.discover.sparse.rounds import likelihood_gains
 
     base = np.array([-10.0, -20.0, -np.inf])
     rows = np.array([[-8.0, -19.0, -5.0], [-9.0, -15.0, -np.inf], [-1.0, np.nan, -1.0], [-9.0, -19.0, -7.0]])

@@ -27,7 +27,7 @@ from .observations import Observations
 from .observed import estimate_states
 
 __all__ = [
-    "BudgetComparison", "HypothesisScore", "SparseCandidate", "SparseRound", "channel_tests",
+    "BudgetComparison", "HypothesisScore", "SparseCandidate", "SparseRound", "channel_tests", "likelihood_gains",
 ]  # fmt: skip
 
 
@@ -36,7 +36,7 @@ class HypothesisScore:
     """A hypothesis' log-likelihood gain over the model without it, at its best random-walk step (on
     the shooting route: half the cost decrease the screen predicts for its closed form, at walk 0);
     ``rescued``: the trajectories its filter holds where the model's own diverged
-    (:func:`.filter.likelihood.likelihood_gains`); ``smoothing_walk``: the step its delta(t) is smoothed with for the
+    (:func:`likelihood_gains`); ``smoothing_walk``: the step its delta(t) is smoothed with for the
     closed form, its best step that lets delta move (a constant delta shows the regression nothing
     but a constant), or its best step where none of those holds."""
 
@@ -154,3 +154,21 @@ def channel_tests(
     )
     settled = smoothed.innovation[:, obs.settling_steps :]
     return innovation_tests(settled, obs.channels, settings.z_threshold, settings.min_excess), smoothed
+
+
+def likelihood_gains(rows: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Log-likelihood gains (R,) of models with per-trajectory log-likelihoods ``rows`` (R, n) over a
+    base model's (n,), and how many trajectories each holds where the base's filter diverged (R,).
+
+    Where the base's filter diverged a difference from it means nothing: there each model is
+    compared with the best of ``rows`` instead (so the gain still ranks the models), and the count
+    records that it explains what the base cannot.  A model that loses a trajectory the reference
+    holds gains minus infinity; a trajectory every model loses is left out.  Rank by (count, gain);
+    where the base holds everywhere, the gain is the plain difference of total log-likelihoods."""
+    rows = np.where(np.isfinite(rows), rows, -np.inf)
+    held = np.isfinite(base)
+    reference = np.where(held, base, rows.max(0, initial=-np.inf))
+    informative = np.isfinite(reference)
+    with np.errstate(invalid="ignore"):
+        gains = (rows[:, informative] - reference[informative]).sum(-1)
+    return gains, np.isfinite(rows[:, ~held]).sum(-1)

@@ -30,11 +30,10 @@ from ...core.hypotheses import Hypothesis
 from ...core.library import Feature
 from ..observations import Observations
 from ..observed import PROCESS_STD
-from ..rounds import HypothesisScore
+from ..rounds import HypothesisScore, likelihood_gains
 
 __all__ = [
     "hypothesis_scales",
-    "likelihood_gains",
     "mostly_lost",
     "score_hypotheses",
     "refine_coefficients",
@@ -97,24 +96,6 @@ def hypothesis_scales(
         which = np.repeat(np.concatenate([[-1], silent]), len(x))
         size[silent] = strongest(which, x, u)
     return np.divide(1.0, size, out=np.zeros(h_count), where=size > 0)
-
-
-def likelihood_gains(rows: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Log-likelihood gains (R,) of models with per-trajectory log-likelihoods ``rows`` (R, n) over a
-    base model's (n,), and how many trajectories each holds where the base's filter diverged (R,).
-
-    Where the base's filter diverged a difference from it means nothing: there each model is
-    compared with the best of ``rows`` instead (so the gain still ranks the models), and the count
-    records that it explains what the base cannot.  A model that loses a trajectory the reference
-    holds gains minus infinity; a trajectory every model loses is left out.  Rank by (count, gain);
-    where the base holds everywhere, the gain is the plain difference of total log-likelihoods."""
-    rows = np.where(np.isfinite(rows), rows, -np.inf)
-    held = np.isfinite(base)
-    reference = np.where(held, base, rows.max(0, initial=-np.inf))
-    informative = np.isfinite(reference)
-    with np.errstate(invalid="ignore"):
-        gains = (rows[:, informative] - reference[informative]).sum(-1)
-    return gains, np.isfinite(rows[:, ~held]).sum(-1)
 
 
 def _rows(obs: Observations, pairs: Sequence[tuple[int, float]]):

@@ -59,8 +59,8 @@ from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest
 from ..measure_next import Recommendation, measure_next, to_separate
 from ..observations import Observations
-from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests
-from .likelihood import likelihood_gains, mostly_lost, refine_coefficients, score_hypotheses, smooth_hypothesis
+from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains
+from .likelihood import mostly_lost, refine_coefficients, score_hypotheses, smooth_hypothesis
 
 __all__ = [
     "Screen",
@@ -493,7 +493,7 @@ def at_budget(
 
 def _score(candidates: Sequence[SparseCandidate], base_likelihood: np.ndarray, samples: int) -> None:
     """Each fitted candidate's BIC gain over the uncorrected model on ``samples`` measured values, and
-    the trajectories it holds where the uncorrected filter diverged (:func:`.likelihood.likelihood_gains`)."""
+    the trajectories it holds where the uncorrected filter diverged (:func:`..rounds.likelihood_gains`)."""
     fitted = [c for c in candidates if c.log_likelihood is not None]
     if not fitted:
         return

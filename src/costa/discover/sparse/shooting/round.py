@@ -44,11 +44,10 @@ from ...core.library import constant_inputs
 from ...core.naming import alike, removal, unfitted_chain
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
-from ..filter.likelihood import likelihood_gains
 from ..innovations import ChannelTest, innovation_tests
 from ..measure_next import measure_next, to_separate
 from ..observations import Observations
-from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests
+from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains
 from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit, states_eliminated
 from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms
 
