@@ -157,3 +157,17 @@ def test_a_part_in_the_voltage_chain_is_named_only_where_the_parts_it_stands_for
     assert unfitted_chain(thickness, [*fitted, h["part:bubble_coverage"]], model, x, u) == []
     for other in ("part:liquidus_temperature", "term:bath_energy", "input:u2", "property:bath_heat_capacity"):
         assert unfitted_chain(h[other], [], model, x, u) == [], other
+
+
+def test_a_round_fits_the_chain_rivals_it_has_one_of_each_sensitivity(model):
+    """The rivals of a thickness candidate are the other parts of its chain that the round could fit
+    (here not the coverage, which the screen lost), the cell voltage left out where the bubble voltage
+    stands for it; a flow candidate brings none."""
+    from costa.discover.core.naming import chain_rivals
+
+    x, u = operating_points(np.random.default_rng(0), 20)
+    h = {h.key: h for h in candidate_hypotheses(model)}
+    available = [h[k] for k in h if k != "part:bubble_coverage"]
+    rivals = chain_rivals([h["part:bubble_thickness"], h["term:bath_energy"]], available, model, x, u)
+    assert [g.key for g in rivals] == ["part:bath_conductivity", "part:bubble_voltage"]
+    assert chain_rivals([h["term:bath_energy"]], available, model, x, u) == []

@@ -15,7 +15,7 @@ from .outcome import Decision, Round
 from .settings import DiscoverySettings
 
 __all__ = [
-    "alike", "balance_moved", "causes_through", "chain", "conclude", "decide", "fit_outcome", "naming_order",
+    "alike", "balance_moved", "causes_through", "chain", "chain_rivals", "conclude", "decide", "fit_outcome", "naming_order",
     "removal", "same_physics", "settled", "small_form_error", "unfitted_chain",
 ]  # fmt: skip
 
@@ -264,6 +264,23 @@ def unfitted_chain(
         for name in chain(chosen.target, model, x.reshape(-1, 8), u.reshape(-1, 5))
     )
     return [p for p in parts if not any(same_sensitivity(p, h, model) for h in (chosen, *fitted))]
+
+
+def chain_rivals(
+    candidates: Sequence[Hypothesis], available: Sequence[Hypothesis], model: CellModel, x: np.ndarray, u: np.ndarray
+) -> list[Hypothesis]:
+    """The hypotheses of ``available`` in the part ``candidates``' chains (:func:`unfitted_chain`) that act
+    unlike every candidate and each other, in the candidates' order: with a free correction each explains
+    the data as well as its candidate, so no screen can exclude them and a round fits them beside the
+    candidates (on conductivity_alf3's pot-line record the bubbles' coverage screened first and the bath
+    conductivity it stands for was not fitted).  States x (..., 8), inputs u (..., 5)."""
+    keys = {h.key for h in available}
+    added: list[Hypothesis] = []
+    for c in candidates:
+        for h in unfitted_chain(c, [*candidates, *added], model, x, u):
+            if h.key in keys and not any(same_sensitivity(h, a, model) for a in added):
+                added.append(h)
+    return added
 
 
 def fit_outcome(fitted: bool, explained: float, scored: bool) -> str:

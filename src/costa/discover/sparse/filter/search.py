@@ -52,7 +52,17 @@ from ....physics import CellModel
 from ...core.fitted_terms import KEEP_LEVEL, weakest_term
 from ...core.hypotheses import Hypothesis, candidate_hypotheses, same_sensitivity
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature, constant_inputs
-from ...core.naming import alike, conclude, decide, fit_outcome, naming_order, removal, small_form_error, unfitted_chain
+from ...core.naming import (
+    alike,
+    chain_rivals,
+    conclude,
+    decide,
+    fit_outcome,
+    naming_order,
+    removal,
+    small_form_error,
+    unfitted_chain,
+)
 from ...core.outcome import Decision
 from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
@@ -274,20 +284,13 @@ def distinct_physics(
 def chained(
     candidates: Sequence[HypothesisScore], screened: Sequence[HypothesisScore], model: CellModel, x, u
 ) -> list[HypothesisScore]:
-    """The ``screened`` hypotheses of the part candidates' chains (:func:`...core.naming.chain`) that are
-    not candidates, one of each sensitivity: with a free delta each explains the data as well as the
-    candidate, so no screen can exclude them and only their closed forms tell them apart (on
-    conductivity_alf3's pot-line record the bubbles' coverage screened first, the bath conductivity
-    it stands for was not fitted).  A round fits them beside the candidates."""
+    """The ``screened`` hypotheses of the part candidates' chains that are not candidates, one of each
+    sensitivity (:func:`...core.naming.chain_rivals`): a round fits them beside the candidates."""
     by_key = {s.hypothesis.key: s for s in screened if np.isfinite(s.log_likelihood_gain)}
-    added: list[HypothesisScore] = []
-    for c in candidates:
-        for h in unfitted_chain(c.hypothesis, [d.hypothesis for d in [*candidates, *added]], model, x, u):
-            if h.key in by_key and not any(same_sensitivity(h, a.hypothesis, model) for a in added):
-                added.append(by_key[h.key])
-    if added:
-        log.info("fitted beside the candidates, their chains: %s", [a.hypothesis.key for a in added])
-    return added
+    rivals = chain_rivals([c.hypothesis for c in candidates], [by_key[k].hypothesis for k in by_key], model, x, u)
+    if rivals:
+        log.info("fitted beside the candidates, their chains: %s", [h.key for h in rivals])
+    return [by_key[h.key] for h in rivals]
 
 
 def other_physics(

@@ -39,9 +39,9 @@ from types import SimpleNamespace
 import numpy as np
 
 from ....physics import CellModel
-from ...core.hypotheses import Hypothesis, candidate_hypotheses, same_sensitivity
+from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import constant_inputs
-from ...core.naming import alike, removal, unfitted_chain
+from ...core.naming import alike, chain_rivals, removal, unfitted_chain
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, innovation_tests
@@ -130,11 +130,10 @@ def screened_forms(
     chosen = {id(f): f for f in forms[:top] + by_excess(forms)[:top] if f.features}
     x, u = base.starts.reshape(-1, 8), few.u[:, :: round(SEGMENT_S / few.dt)].reshape(-1, 5)
     by_key = {f.hypothesis.key: f for f in forms if f.features}
-    for form in list(chosen.values()):  # the chains of the part candidates (:func:`...core.naming.chain`)
-        for h in unfitted_chain(form.hypothesis, [f.hypothesis for f in chosen.values()], model, x, u):
-            if h.key in by_key and not any(same_sensitivity(h, f.hypothesis, model) for f in chosen.values()):
-                chosen[id(by_key[h.key])] = by_key[h.key]
-                log.info("fitted beside the candidates, of %s's chain: %s", form.hypothesis.key, h.key)
+    rivals = chain_rivals([f.hypothesis for f in chosen.values()], [f.hypothesis for f in by_key.values()], model, x, u)
+    if rivals:
+        log.info("fitted beside the candidates, their chains: %s", [h.key for h in rivals])
+    chosen |= {id(by_key[h.key]): by_key[h.key] for h in rivals}
     for form in not_excluded(forms, settings.shooting_window):
         if len(chosen) >= settings.shooting_fits:
             break
