@@ -287,7 +287,7 @@ def chained(
     """The ``screened`` hypotheses of the part candidates' chains that are not candidates, one of each
     sensitivity (:func:`...core.naming.chain_rivals`): a round fits them beside the candidates."""
     by_key = {s.hypothesis.key: s for s in screened if np.isfinite(s.log_likelihood_gain)}
-    rivals = chain_rivals([c.hypothesis for c in candidates], [by_key[k].hypothesis for k in by_key], model, x, u)
+    rivals = chain_rivals([c.hypothesis for c in candidates], [s.hypothesis for s in by_key.values()], model, x, u)
     if rivals:
         log.info("fitted beside the candidates, their chains: %s", [h.key for h in rivals])
     return [by_key[h.key] for h in rivals]
