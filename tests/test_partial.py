@@ -793,11 +793,12 @@ def test_of_terms_that_each_cover_zero_the_one_that_fits_best_alone_stays(monkey
     assert _best_alone(term, model, obs, settings, **alone) == 1
 
 
-def test_an_input_gain_fitted_as_a_form_of_several_terms_gives_way_to_its_constant_alone():
+def test_an_input_gain_fitted_as_a_form_of_other_terms_gives_way_to_its_constant_alone():
     """The alumina feed short by 8 % (input:u1 at -0.08) on three cells measured in alumina, AlF3 and
-    bath temperature, and a fitted form that reads the gain as 0.3 times the bath's excess over
-    970 degC: the gain's constant refined alone fits the channels better, so it replaces the form,
-    the truth within its interval; a missing AlF3 flow (not a relative change) keeps its form."""
+    bath temperature, and fitted forms that read the gain as 0.3 times the bath's excess over
+    970 degC (beside a constant, or alone): the gain's constant refined alone fits the channels
+    better, so it replaces either form, the truth within its interval; a missing AlF3 flow (not a
+    relative change) keeps its form."""
     from costa.discover.sparse.filter.search import _constant_if_better
     from costa.discover.sparse.rounds import SparseCandidate, channel_tests
 
@@ -821,6 +822,9 @@ def test_an_input_gain_fitted_as_a_form_of_several_terms_gives_way_to_its_consta
     assert [f.name for f in form.features] == ["1"]
     assert form.samples.shape == (4, 1) and np.isfinite(form.log_likelihood).all()
     assert abs(form.coefficients[0] + 0.08) < 0.01
+    alone = fitted(gain, ["(x6 - 970)"], [0.3])
+    _constant_if_better(alone, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
+    assert [f.name for f in alone.features] == ["1"] and abs(alone.coefficients[0] + 0.08) < 0.01
     (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
     flow = fitted(term, ["1", "(x6 - 970)"], [-0.001, 1e-5])
     _constant_if_better(flow, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
