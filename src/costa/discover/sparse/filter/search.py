@@ -408,9 +408,9 @@ def _constant_if_better(
     drops terms: on a 30-day pot fed 92 %, a 7-term form in c2, c3 and x6 was kept where the gain's
     constant alone, -0.0798 (the truth -0.08), fits 5,500 log-likelihood units better; on three pots
     of a line fed 92 %, pooled, one term 13 (c2 - 0.03)(x6 - 970) where the constant, -0.0800, fits
-    46,000 better.  The first round only: in a
-    later round a constant flow stands in for what is left of an earlier round's closed form (the
-    liquidus law named from partial records lost its name to a constant bath-ledge transfer)."""
+    46,000 better.  The first round only: in a later round a constant flow stands in for what is left
+    of an earlier round's closed form (the liquidus law named from partial records lost its name to a
+    constant bath-ledge transfer)."""
     h = candidate.score.hypothesis
     constant = next((f for f in h.features(rich) if f.name == "1"), None)
     if h.kind not in RELATIVE_KINDS or constant is None or [f.name for f in candidate.features] == ["1"]:
