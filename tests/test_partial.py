@@ -14,10 +14,17 @@ from costa.config import load_config
 from costa.discover.cases.shipped import CASES
 from costa.discover.cases.tables import case_tables
 from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.library import FIRST_ORDER
 from costa.discover.core.naming import fit_outcome
 from costa.discover.core.settings import DiscoverySettings
 from costa.discover.findings import findings, findings_markdown
-from costa.discover.pipeline import run_discovery, settings_from_config, starting_model
+from costa.discover.pipeline import (
+    discovery_route,
+    run_discovery,
+    search_settings,
+    settings_from_config,
+    starting_model,
+)
 from costa.discover.sparse.filter.likelihood import hypothesis_scales
 from costa.discover.sparse.filter.search import discover_round
 from costa.discover.sparse.innovations import innovation_tests
@@ -799,7 +806,7 @@ def test_an_input_gain_fitted_as_a_form_of_other_terms_gives_way_to_its_constant
     970 degC (beside a constant, or alone): the gain's constant refined alone fits the channels
     better, so it replaces either form, the truth within its interval; a missing AlF3 flow (not a
     relative change) keeps its form."""
-    from costa.discover.sparse.filter.search import _constant_if_better
+    from costa.discover.sparse.filter.search import _one_term_if_better
     from costa.discover.sparse.rounds import SparseCandidate, channel_tests
 
     model, gain, obs = _hidden_constant("input:u1", -0.08, cells=3, stream="gain", channels=("c2", "c3", "x6"))
@@ -818,17 +825,47 @@ def test_an_input_gain_fitted_as_a_form_of_other_terms_gives_way_to_its_constant
         )  # fmt: skip
 
     form = fitted(gain, ["1", "(x6 - 970)"], [-0.02, 0.3])
-    _constant_if_better(form, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
+    _one_term_if_better(form, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
     assert [f.name for f in form.features] == ["1"]
     assert form.samples.shape == (4, 1) and np.isfinite(form.log_likelihood).all()
     assert abs(form.coefficients[0] + 0.08) < 0.01
     alone = fitted(gain, ["(x6 - 970)"], [0.3])
-    _constant_if_better(alone, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
+    _one_term_if_better(alone, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
     assert [f.name for f in alone.features] == ["1"] and abs(alone.coefficients[0] + 0.08) < 0.01
     (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
     flow = fitted(term, ["1", "(x6 - 970)"], [-0.001, 1e-5])
-    _constant_if_better(flow, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
+    _one_term_if_better(flow, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
     assert [f.name for f in flow.features] == ["1", "(x6 - 970)"]
+
+
+@pytest.mark.integration  # a minute of CPU: one hypothesis screened and fitted on three 5-day cells
+def test_an_alf3_dependent_conductivity_is_fitted_as_its_relative_slope_alone():
+    """conductivity_alf3's pot_line record (the bath's conductivity times exp(-3.5 (c3 - 0.11)); the pot
+    voltage every 10 s, daily bath samples), three cells: in a first round, of part:bath_conductivity's
+    relative first-order terms (:func:`_single_terms`) each refined alone, own (c3 - 0.11) replaces the
+    regression's form, within 10 % of the exponential's slope over the measured AlF3 fractions (its
+    least-squares line), and leaves every channel within noise."""
+    from costa.discover.sparse.filter.likelihood import score_hypotheses
+    from costa.discover.sparse.filter.search import _fit, _single_terms
+    from costa.discover.sparse.rounds import channel_tests
+
+    config = load_config()
+    train, _ = case_tables(config, "conductivity_alf3", "pot_line")
+    model = starting_model(config, "full")
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "pot_line"), "pot_line")
+    obs = obs.subset(slice(0, 3)).with_start(model)
+    settings = search_settings(config, "pot_line", discovery_route(config, "pot_line", [train]))
+    (part,) = [h for h in candidate_hypotheses(model) if h.key == "part:bath_conductivity"]
+    assert [f.name for f in _single_terms(part, False)] == ["own", *(f"own*{v}" for v in FIRST_ORDER[1:])]
+    tests, base = channel_tests(model, obs, settings)
+    (score,), _ = score_hypotheses(model, [part], obs, settings.window, base.mean[..., :8], walks=settings.walks)
+    alone = _fit(score, model, obs, settings, 0, False, tests, first=True)
+    excess = obs.y[..., obs.channels.index("c3")] - 0.11
+    excess = excess[np.isfinite(excess)]
+    slope = np.sum(excess * np.expm1(-3.5 * excess)) / np.sum(excess**2)
+    assert [f.name for f in alone.features] == ["own*(c3 - 0.11)"]
+    assert abs(alone.coefficients[0] - slope) < 0.1 * abs(slope), (alone.coefficients, slope)
+    assert not any(t.flagged for t in alone.tests_after)
 
 
 def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monkeypatch):

@@ -70,7 +70,7 @@ from ..innovations import ChannelTest
 from ..measure_next import Recommendation, measure_next, to_separate
 from ..observations import Observations
 from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains
-from .likelihood import mostly_lost, refine_coefficients, score_hypotheses, smooth_hypothesis
+from .likelihood import CONVERGED, MAX_PASSES, mostly_lost, refine_coefficients, score_hypotheses, smooth_hypothesis
 
 __all__ = [
     "Screen",
@@ -346,8 +346,8 @@ def _fit(
 ) -> SparseCandidate:
     """Smooth one hypothesis on every trajectory, fit its closed form, refine its coefficients on the
     measured channels, test the corrected model's innovations and keep its likelihood (scored
-    against the other candidates by :func:`_score`); in the ``first`` round, a constant alone where
-    it scores better (:func:`_constant_if_better`).  Every candidate of a round resamples with
+    against the other candidates by :func:`_score`); in the ``first`` round, one term alone where
+    it scores better (:func:`_one_term_if_better`).  Every candidate of a round resamples with
     the same ``seed``.  A hypothesis whose smoothed filter is lost on half the trajectories or
     more is not fitted (its refinement would give up there too)."""
     started = time.perf_counter()
@@ -387,7 +387,7 @@ def _fit(
     tests_after, after = channel_tests(corrected, candidate.placed, settings, backward=False)
     candidate.corrected, candidate.tests_after, candidate.log_likelihood = corrected, tests_after, after.log_likelihood
     if first:
-        _constant_if_better(candidate, model, obs, settings, smoothed=smoothed, rich=rich, rng=rng)
+        _one_term_if_better(candidate, model, obs, settings, smoothed=smoothed, rich=rich, rng=rng)
     flagged = [t.channel for t in tests if t.flagged]
     candidate.explained = 1 - _excess(candidate.tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
     log.info(
@@ -397,49 +397,85 @@ def _fit(
     return candidate
 
 
-def _constant_if_better(
+def _one_term_if_better(
     candidate: SparseCandidate, model: CellModel, obs: Observations, settings: DiscoverySettings, *,
     smoothed: Smoothed, rich: bool, rng,
 ) -> None:  # fmt: skip
-    """Replace the candidate's closed form (of several terms, or of one other than the constant) by one
-    constant, refined alone on the measured channels, where the constant scores better by the round's
-    own measure (2 log-likelihood - terms x ln(samples), on as many trajectories held).  The regression
-    on the smoothed delta follows the filter's errors as well as the effect, and the refinement only
-    drops terms: on a 30-day pot fed 92 %, a 7-term form in c2, c3 and x6 was kept where the gain's
+    """Replace the candidate's closed form by one term (:func:`_single_terms`, each refined alone on the
+    measured channels until it converges), where the best of them scores better by the round's own
+    measure (2 log-likelihood - terms x ln(samples), on as many trajectories held).  The regression on
+    the smoothed delta follows the filter's errors as well as the effect, and the refinement only drops
+    terms: on a 30-day pot fed 92 %, a 7-term form in c2, c3 and x6 was kept where the gain's
     constant alone, -0.0798 (the truth -0.08), fits 5,500 log-likelihood units better; on three pots
     of a line fed 92 %, pooled, one term 13 (c2 - 0.03)(x6 - 970) where the constant, -0.0800, fits
-    46,000 better.  The first round only: in a later round a constant flow stands in for what is left
+    46,000 better; on three pots whose bath conductivity falls with AlF3 as exp(-3.5 (c3 - 0.11)),
+    pooled, the regression reached a seventh of the slope and every form of the voltage's chain left
+    x6 and c3 beyond noise, where own (c3 - 0.11) refined alone reaches -3.4 and leaves every channel
+    within noise.  The first round only: in a later round a constant flow stands in for what is left
     of an earlier round's closed form (the liquidus law named from partial records lost its name to a
     constant bath-ledge transfer)."""
     h = candidate.score.hypothesis
-    constant = next((f for f in h.features(rich) if f.name == "1"), None)
-    if h.kind not in RELATIVE_KINDS or constant is None or [f.name for f in candidate.features] == ["1"]:
-        return
-    delta = smoothed.mean[..., 8]
-    start = float(np.nanmean(delta))
-    width = np.array([max(0.5 * abs(start), float(np.nanstd(delta))) + 1e-300])
-    placed = obs.searched_again(h.corrected(model, [constant], np.array([start])))
-    refined = refine_coefficients(model, h, [constant], coefficients=np.array([start]), width=width, obs=placed)
-    if refined is None:
-        return
-    corrected = h.corrected(model, [constant], refined.coefficients)
-    placed = obs.searched_again(corrected)
-    tests_after, after = channel_tests(corrected, placed, settings, backward=False)
     samples = np.log(max(int(np.isfinite(obs.y).sum()), 2))
 
     def score(likelihood: np.ndarray, terms: int) -> tuple[int, float]:
         held = np.isfinite(likelihood)
         return int(held.sum()), 2 * float(likelihood[held].sum()) - terms * samples
 
-    if score(after.log_likelihood, 1) < score(candidate.log_likelihood, len(candidate.features)):
+    best, best_score = None, score(candidate.log_likelihood, len(candidate.features))
+    for term in _single_terms(h, rich):
+        if [f.name for f in candidate.features] == [term.name]:
+            continue
+        alone = _refined_alone(h, term, model, obs, settings, smoothed=smoothed)
+        if alone is not None and score(alone[3].log_likelihood, 1) >= best_score:
+            best, best_score = (term, *alone), score(alone[3].log_likelihood, 1)
+    if best is None:
         return
-    log.info("%s: a constant alone, %.4g, scores better than %s", h.key, refined.coefficients[0], candidate.formula)
-    candidate.features, candidate.coefficients = [constant], refined.coefficients
+    term, refined, placed, tests_after, after = best
+    log.info("%s: %s alone, %.4g, scores better than %s", h.key, term.name, refined.coefficients[0], candidate.formula)
+    candidate.features, candidate.coefficients = [term], refined.coefficients
     candidate.samples = rng.multivariate_normal(
         refined.coefficients, refined.covariance, size=len(candidate.samples), method="eigh"
     )
-    candidate.corrected, candidate.placed = corrected, placed
+    candidate.corrected, candidate.placed = h.corrected(model, [term], refined.coefficients), placed
     candidate.tests_after, candidate.log_likelihood = tests_after, after.log_likelihood
+
+
+def _single_terms(h: Hypothesis, rich: bool) -> list[Feature]:
+    """The terms tried alone in a first round: an input's gain or a property's factor, the constant; a
+    part's, its relative first order (its own value alone and times each of :data:`FIRST_ORDER`'s
+    variables: the part in proportion to itself, as a coefficient that varies with the bath); none
+    for a flow."""
+    library = {f.name: f for f in h.features(rich)}
+    if h.kind in RELATIVE_KINDS:
+        names = ["1"]
+    elif h.kind == "part":
+        names = ["own", *(f"own*{name}" for name in FIRST_ORDER[1:])]
+    else:
+        names = []
+    return [library[name] for name in names if name in library]
+
+
+def _refined_alone(
+    h: Hypothesis, term: Feature, model: CellModel, obs: Observations, settings: DiscoverySettings, *,
+    smoothed: Smoothed,
+):  # fmt: skip
+    """One ``term`` refined alone from its least-squares fit to the smoothed delta, with a prior width of
+    half that or of the delta's spread in the term's units, whichever is larger: (refined, the
+    observations placed by the corrected model, its channel tests, its likelihood), or None."""
+    delta = smoothed.mean[..., 8]
+    values = _feature_values(h, model, [term], smoothed.mean[..., :8], obs.u)[..., 0]
+    finite = np.isfinite(delta) & np.isfinite(values)
+    delta, values = delta[finite], values[finite]
+    start = np.array([np.sum(delta * values) / max(float(np.sum(values**2)), 1e-300)])
+    spread = float(np.std(delta)) / max(float(np.mean(np.abs(values))), 1e-300)
+    width = np.maximum(0.5 * np.abs(start), spread) + 1e-300
+    placed = obs.searched_again(h.corrected(model, [term], start))
+    refined = refine_coefficients(model, h, [term], start, width, placed, passes=MAX_PASSES, converged=CONVERGED)
+    if refined is None:
+        return None
+    corrected = h.corrected(model, [term], refined.coefficients)
+    placed = obs.searched_again(corrected)
+    return refined, placed, *channel_tests(corrected, placed, settings, backward=False)
 
 
 def _cut(candidate: SparseCandidate, budget: int, model: CellModel, settings: DiscoverySettings) -> np.ndarray:
