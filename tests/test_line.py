@@ -131,8 +131,8 @@ def test_the_page_says_which_correction_explains_which_pots_and_its_equivalents(
 def test_a_pot_another_groups_correction_explains_is_pooled_into_that_group_and_searched_again():
     """Group A's correction brings its own pots and pot06 (group D, which its own group's correction
     leaves disagreeing) within noise: pot06 moves to A, D is gone, A is searched again; pot07, which
-    A's correction also explains but its own group E's does too, stays in E.  The page's answer is
-    the second pass's."""
+    A's correction also explains but its own group E's does too (and E's leaves pot01 disagreeing),
+    stays in E.  The page's answer is the second pass's."""
     groups = [
         {"group": "A", "hypothesis": "input:u4", "pots": ["pot01", "pot02"], "signatures": {"pot01": "x5+", "pot02": "x5+"}},
         {"group": "D", "hypothesis": "transfer:ledge_mass->metal_mass", "pots": ["pot06"], "signatures": {"pot06": "x5+"}},
@@ -142,7 +142,7 @@ def test_a_pot_another_groups_correction_explains_is_pooled_into_that_group_and_
     checks = {
         "A": _check(flagged, members=("pot01", "pot02")),
         "D": _check({**flagged, "pot06": (True, True)}, members=("pot06",)),
-        "E": _check({**flagged, "pot07": (True, False)}, members=("pot07",)),
+        "E": _check({**flagged, "pot01": (True, True)}, members=("pot07",)),  # not A's pots: A and E stay two
     }
     pooled = pool_again(groups, checks)
     assert [(g["group"], g["pots"], g["from"], g["again"]) for g in pooled] == [
@@ -161,6 +161,25 @@ def test_a_pot_another_groups_correction_explains_is_pooled_into_that_group_and_
     assert "| A | pot01, pot02, pot06 | A, D | found | input:u4 | -0.1 | none | pot07 |" in page
     assert "- input:u4 (group A, found): pot01, pot02, pot06, pot07\n- no group's correction: none\n" in page
     assert "Pooled again" not in line_page(line, line_table(screens, {}), groups, findings, checks)
+
+
+def test_two_groups_whose_corrections_each_explain_the_others_pots_are_one_group_searched_again():
+    """Groups C (pot04, pot10) and E (pot17) each explained by their own correction, and each correction
+    bringing the other group's pots within noise: one group, C with E's pot, searched again (one name
+    decided on all three pots); where E's correction does not explain C's pots, E keeps its pot."""
+    groups = [
+        {"group": "C", "hypothesis": "part:bath_conductivity", "pots": ["pot04", "pot10"], "signatures": {}},
+        {"group": "E", "hypothesis": "part:cell_voltage", "pots": ["pot17"], "signatures": {}},
+    ]  # fmt: skip
+    flagged = {"pot04": (True, False), "pot10": (True, False), "pot17": (True, False)}
+    mutual = {"C": _check(flagged, members=("pot04", "pot10")), "E": _check(flagged, members=("pot17",))}
+    assert [(g["group"], g["pots"], g["from"], g["again"]) for g in pool_again(groups, mutual)] == [
+        ("C", ["pot04", "pot10", "pot17"], ["C", "E"], True)
+    ]
+    one_way = {**mutual, "E": _check({**flagged, "pot04": (True, True)}, members=("pot17",))}
+    assert [(g["group"], g["pots"], g["again"]) for g in pool_again(groups, one_way)] == [
+        ("C", ["pot04", "pot10"], False), ("E", ["pot17"], False)
+    ]  # fmt: skip
 
 
 def test_a_lines_config_is_checked_across_keys(default_config):

@@ -50,7 +50,8 @@ def line_page(
     if again:
         lines += [
             "", "Pooled again: a pot its own group's correction leaves disagreeing moves to the first group whose "
-            "correction brings it within noise, and each group whose pots changed is searched again on them together.",
+            "correction brings it within noise, two groups whose corrections each bring the other's pots within noise "
+            "are one, and each group whose pots changed is searched again on them together.",
             "", *_group_table(again, pooled_findings, pooled_checks, pooled=True),
         ]  # fmt: skip
         findings = {g["group"]: (pooled_findings if g["again"] else findings).get(g["group"], {}) for g in pooled}
