@@ -44,6 +44,7 @@ import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -70,7 +71,15 @@ from ..innovations import ChannelTest
 from ..measure_next import Recommendation, measure_next, to_separate
 from ..observations import Observations
 from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains
-from .likelihood import CONVERGED, MAX_PASSES, mostly_lost, refine_coefficients, score_hypotheses, smooth_hypothesis
+from .likelihood import (
+    CONVERGED,
+    MAX_PASSES,
+    Refined,
+    mostly_lost,
+    refine_coefficients,
+    score_hypotheses,
+    smooth_hypothesis,
+)
 
 __all__ = [
     "Screen",
@@ -426,18 +435,18 @@ def _one_term_if_better(
         if [f.name for f in candidate.features] == [term.name]:
             continue
         alone = _refined_alone(h, term, model, obs, settings, smoothed=smoothed)
-        if alone is not None and score(alone[3].log_likelihood, 1) >= best_score:
-            best, best_score = (term, *alone), score(alone[3].log_likelihood, 1)
+        if alone is not None and score(alone.log_likelihood, 1) >= best_score:
+            best, best_score = alone, score(alone.log_likelihood, 1)
     if best is None:
         return
-    term, refined, placed, tests_after, after = best
+    term, refined = best.term, best.refined
     log.info("%s: %s alone, %.4g, scores better than %s", h.key, term.name, refined.coefficients[0], candidate.formula)
     candidate.features, candidate.coefficients = [term], refined.coefficients
     candidate.samples = rng.multivariate_normal(
         refined.coefficients, refined.covariance, size=len(candidate.samples), method="eigh"
     )
-    candidate.corrected, candidate.placed = h.corrected(model, [term], refined.coefficients), placed
-    candidate.tests_after, candidate.log_likelihood = tests_after, after.log_likelihood
+    candidate.corrected, candidate.placed = best.corrected, best.placed
+    candidate.tests_after, candidate.log_likelihood = best.tests, best.log_likelihood
 
 
 def _single_terms(h: Hypothesis, rich: bool) -> list[Feature]:
@@ -455,13 +464,25 @@ def _single_terms(h: Hypothesis, rich: bool) -> list[Feature]:
     return [library[name] for name in names if name in library]
 
 
+class _Alone(NamedTuple):
+    """One term refined alone (:func:`_refined_alone`): the model it corrects, the observations that
+    model placed, its channel tests and per-trajectory log-likelihood (n,)."""
+
+    term: Feature
+    refined: Refined
+    corrected: CellModel
+    placed: Observations
+    tests: list[ChannelTest]
+    log_likelihood: np.ndarray
+
+
 def _refined_alone(
     h: Hypothesis, term: Feature, model: CellModel, obs: Observations, settings: DiscoverySettings, *,
     smoothed: Smoothed,
-):  # fmt: skip
+) -> _Alone | None:  # fmt: skip
     """One ``term`` refined alone from its least-squares fit to the smoothed delta, with a prior width of
-    half that or of the delta's spread in the term's units, whichever is larger: (refined, the
-    observations placed by the corrected model, its channel tests, its likelihood), or None."""
+    half that or of the delta's spread in the term's units, whichever is larger; None where the
+    refinement fails."""
     delta = smoothed.mean[..., 8]
     values = _feature_values(h, model, [term], smoothed.mean[..., :8], obs.u)[..., 0]
     finite = np.isfinite(delta) & np.isfinite(values)
@@ -475,7 +496,8 @@ def _refined_alone(
         return None
     corrected = h.corrected(model, [term], refined.coefficients)
     placed = obs.searched_again(corrected)
-    return refined, placed, *channel_tests(corrected, placed, settings, backward=False)
+    tests, after = channel_tests(corrected, placed, settings, backward=False)
+    return _Alone(term, refined, corrected, placed, tests, after.log_likelihood)
 
 
 def _cut(candidate: SparseCandidate, budget: int, model: CellModel, settings: DiscoverySettings) -> np.ndarray:
