@@ -9,7 +9,15 @@ import pandas as pd
 import pytest
 from conftest import REPOSITORY, snakemake
 
-from costa.benchmark.score import peer_rates, projected_hours, rates, recall_by_signal, wilson
+from costa.benchmark.score import (
+    peer_rates,
+    projected_hours,
+    rates,
+    recall_by_signal,
+    strong_by_kind,
+    strong_by_kind_markdown,
+    wilson,
+)
 from costa.benchmark.signal import signal
 from costa.compiled import CompiledModel
 from costa.config import ConfigError, check_consistency
@@ -172,6 +180,25 @@ def test_rates_count_names_right_over_names_given_and_over_effects():
     assert curve.effects.tolist() == [4, 2, 2, 2] and curve.right.tolist() == [1, 1, 2, 2]
 
 
+def test_strong_effects_are_counted_by_kind_and_by_how_each_was_not_named():
+    """Only effects of signal >= 100 count; the two kinds of not identifiable are one column; nulls are left out."""
+    table = pd.DataFrame({
+        "sensors": "partial",
+        "kind": ["term", "term", "term", "part", "part", "part", "part", "none"],
+        "verdict": ["right", "missed", "right", "wrong", "not identifiable, truth listed",
+                    "not identifiable, truth not listed", "unexplained", "false alarm"],
+        "signal": [500.0, 100, 99, 1e4, np.inf, 300, 200, 0],
+    })  # fmt: skip
+    by_kind = strong_by_kind(table).set_index("kind")
+    assert by_kind.effects.to_dict() == {"term": 2, "part": 4}
+    assert by_kind.loc["term", ["right", "missed"]].tolist() == [1, 1]
+    part = by_kind.loc["part"]
+    assert part[["right", "wrong", "not identifiable", "unexplained", "missed"]].tolist() == [0, 1, 2, 1, 0]
+    assert by_kind.loc["term", "recall"] == 0.5
+    assert part[["recall_low", "recall_high"]].tolist() == pytest.approx(wilson(0, 4))
+    assert "| partial | part | 4 | 0 | 1 | 2 | 1 | 0 | 0% [0%, 49%] |" in strong_by_kind_markdown(strong_by_kind(table))
+
+
 def test_a_findings_page_quotes_the_published_test_rates_of_records_sampled_alike_and_nothing_else(tmp_path):
     """The plant set's for a record sampled as a plant's, in words with their intervals; a dev run's
     rates are never quoted, and without a published file a page says nothing."""
@@ -231,7 +258,8 @@ def test_the_benchmark_runs_end_to_end_at_the_smoke_sizes(tmp_path):
     peers = pd.read_csv(results / "peers.csv")
     assert set(peers.method) == {"this workflow", "PySINDy", "UDE (CoSTA + PySINDy)"}
     page = (results / "benchmark.md").read_text()
-    assert "| full | 3 (" in page and "## Against its peers" in page
+    assert "| full | 3 (" in page and "## Against its peers" in page and "by kind" in page
+    assert set(pd.read_csv(results / "strong_by_kind.csv").columns) >= {"kind", "effects", "right", "missed", "recall"}
     assert (results / "recall_by_signal.png").stat().st_size > 10_000
 
 

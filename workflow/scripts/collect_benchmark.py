@@ -13,6 +13,8 @@ from costa.benchmark.score import (
     rates,
     rates_markdown,
     recall_by_signal,
+    strong_by_kind,
+    strong_by_kind_markdown,
 )
 from costa.plots import plot_recall_by_signal, save
 
@@ -36,7 +38,10 @@ table.assign(split=params.split, size=params.size).to_csv(snakemake.output.rates
 curve = recall_by_signal(cases, params.bins)
 curve.to_csv(snakemake.output.curve, index=False)
 save(plot_recall_by_signal(curve, cases), snakemake.output.figure)
+by_kind = strong_by_kind(cases)
+by_kind.to_csv(snakemake.output.by_kind, index=False)
 page = "# The discovery benchmark\n\n" + rates_markdown(table, params.split, params.size)
+page += "\n" + strong_by_kind_markdown(by_kind)
 page += "\nEach size at this run's job seconds a case (2 cores run two jobs at a time; the SLURM profile as many as it is given):\n\n"
 page += projected_hours(table, {size: chosen["sensors"] for size, chosen in params.sizes.items()}, (2, 16, 64))
 if snakemake.input.peers:

@@ -22,7 +22,7 @@ from ..discover.summary import judged
 
 __all__ = [
     "case_table", "peer_rates", "peers_markdown", "projected_hours", "rates", "rates_markdown", "recall_by_signal",
-    "wilson",
+    "strong_by_kind", "strong_by_kind_markdown", "wilson",
 ]  # fmt: skip
 
 
@@ -102,6 +102,47 @@ def recall_by_signal(table: pd.DataFrame, edges: Sequence[float]) -> pd.DataFram
             rows.append({"sensors": sensor_set, "signal_from": interval.left, "signal_to": interval.right,
                          "effects": len(members), "right": right, **_rate("recall", right, len(members))})  # fmt: skip
     return pd.DataFrame(rows)
+
+
+#: how an effect the record shows strongly was not named, in the words of the page: (verdicts, what it means)
+MISSES = {
+    "wrong": (("wrong",), "another hypothesis named"),
+    "not identifiable": (("not identifiable, truth listed", "not identifiable, truth not listed"),
+                         "other physics fitted alike"),
+    "unexplained": (("unexplained",), "flagged, no fitted form explained enough"),
+    "missed": (("missed",), "no channel beyond its noise"),
+}  # fmt: skip
+
+
+def strong_by_kind(table: pd.DataFrame) -> pd.DataFrame:
+    """Per sensor set and kind of hidden effect, the effects whose signal is at least :data:`STRONG_SIGNAL`:
+    how many, named right (the recall with its interval), and how each of the others ended (:data:`MISSES`)."""
+    strong = table[(table.kind != "none") & (table.signal >= STRONG_SIGNAL)]
+    rows = []
+    for (sensor_set, kind), group in strong.groupby(["sensors", "kind"], sort=False):
+        right = int((group.verdict == "right").sum())
+        row = {"sensors": sensor_set, "kind": kind, "effects": len(group), "right": right}
+        row |= {miss: int(group.verdict.isin(verdicts).sum()) for miss, (verdicts, _) in MISSES.items()}
+        rows.append(row | _rate("recall", right, len(group)))
+    columns = ["sensors", "kind", "effects", "right", *MISSES, "recall", "recall_low", "recall_high"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def strong_by_kind_markdown(table: pd.DataFrame) -> str:
+    """:func:`strong_by_kind` as a Markdown table, with what each way of missing means."""
+    meanings = "; ".join(f"{miss}: {meaning}" for miss, (_, meaning) in MISSES.items())
+    lines = [
+        f"Effects of signal >= {STRONG_SIGNAL:.0f} noise units, by kind: which are named and how the others "
+        f"ended ({meanings}).",
+        "",
+        "| sensors | kind | effects | right | " + " | ".join(MISSES) + " | recall |",
+        "|---|---|---|---|" + "---|" * len(MISSES) + "---|",
+    ]
+    for row in table.to_dict(orient="records"):
+        misses = " | ".join(str(row[miss]) for miss in MISSES)
+        lines.append(f"| {row['sensors']} | {row['kind']} | {row['effects']} | {row['right']} | {misses} "
+                     f"| {_percent(row, 'recall')} |")  # fmt: skip
+    return "\n".join(lines) + "\n"
 
 
 def rates_markdown(rates_table: pd.DataFrame, split: str, size: str) -> str:
