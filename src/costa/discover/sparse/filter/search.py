@@ -420,9 +420,7 @@ def _one_term_if_better(
     46,000 better; on three pots whose bath conductivity falls with AlF3 as exp(-3.5 (c3 - 0.11)),
     pooled, the regression reached a seventh of the slope and every form of the voltage's chain left
     x6 and c3 beyond noise, where own (c3 - 0.11) refined alone reaches -3.4 and leaves every channel
-    within noise; on six pots where a share of the feed settles, the alumina balance's 6-term flow
-    removed 10 % of the excess, so the feed's gain was named, where the dose u1 alone, -0.158, removes
-    it all and beats the gain (which feeds the AlF3 and cryolite balances too) by 278 of BIC.  The first round only: in a later round a constant flow stands in for what is left
+    within noise.  The first round only: in a later round a constant flow stands in for what is left
     of an earlier round's closed form (the liquidus law named from partial records lost its name to a
     constant bath-ledge transfer)."""
     h = candidate.score.hypothesis
@@ -454,15 +452,15 @@ def _one_term_if_better(
 def _single_terms(h: Hypothesis, rich: bool) -> list[Feature]:
     """The terms tried alone in a first round: an input's gain or a property's factor, the constant; a
     part's, its relative first order (its own value alone and times each of :data:`FIRST_ORDER`'s
-    variables: the part in proportion to itself, as a coefficient that varies with the bath); a
-    flow's, the constant and each dose (:data:`FLOW_INPUTS`: a share of the feed or of the tapping)."""
+    variables: the part in proportion to itself, as a coefficient that varies with the bath); none
+    for a flow."""
     library = {f.name: f for f in h.features(rich)}
     if h.kind in RELATIVE_KINDS:
         names = ["1"]
     elif h.kind == "part":
         names = ["own", *(f"own*{name}" for name in FIRST_ORDER[1:])]
     else:
-        names = ["1", *FLOW_INPUTS]
+        names = []
     return [library[name] for name in names if name in library]
 
 
