@@ -68,7 +68,7 @@ def rates(table: pd.DataFrame, order: Sequence[str] | None = None) -> pd.DataFra
         right, names = int(count.get("right", 0)), int(count.reindex(["right", "wrong", "false name"]).fillna(0).sum())
         row: dict = {"sensors": sensor_set, "cases": len(group), "effects": effects, "nulls": nulls}
         row |= {verdict: int(count.get(verdict, 0)) for verdict in _COUNTED}
-        strong = group[(group.kind != "none") & (group.signal >= STRONG_SIGNAL)]
+        strong = _strong_effects(group)
         row |= _rate("precision", right, names) | _rate("recall", right, effects)
         strong_right = int((strong.verdict == "right").sum())
         row |= {"strong_effects": len(strong), "strong_right": strong_right}
@@ -78,6 +78,11 @@ def rates(table: pd.DataFrame, order: Sequence[str] | None = None) -> pd.DataFra
         rows.append(row)
     result = pd.DataFrame(rows)
     return result.set_index("sensors").loc[list(order)].reset_index() if order else result
+
+
+def _strong_effects(table: pd.DataFrame) -> pd.DataFrame:
+    """The cases with an effect whose signal is at least :data:`STRONG_SIGNAL`."""
+    return table[(table.kind != "none") & (table.signal >= STRONG_SIGNAL)]
 
 
 _COUNTED = (
@@ -117,7 +122,7 @@ MISSES = {
 def strong_by_kind(table: pd.DataFrame) -> pd.DataFrame:
     """Per sensor set and kind of hidden effect, the effects whose signal is at least :data:`STRONG_SIGNAL`:
     how many, named right (the recall with its interval), and how each of the others ended (:data:`MISSES`)."""
-    strong = table[(table.kind != "none") & (table.signal >= STRONG_SIGNAL)]
+    strong = _strong_effects(table)
     rows = []
     for (sensor_set, kind), group in strong.groupby(["sensors", "kind"], sort=False):
         right = int((group.verdict == "right").sum())
