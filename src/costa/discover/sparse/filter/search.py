@@ -465,8 +465,8 @@ def _single_terms(h: Hypothesis, rich: bool) -> list[Feature]:
 
 
 class _Alone(NamedTuple):
-    """One term refined alone (:func:`_refined_alone`): the model it corrects, the observations that
-    model placed, its channel tests and per-trajectory log-likelihood (n,)."""
+    """One term refined alone (:func:`_refined_alone`): the term, its refinement, the model it corrects,
+    the observations that model placed, its channel tests and per-trajectory log-likelihood (n,)."""
 
     term: Feature
     refined: Refined
