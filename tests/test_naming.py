@@ -6,10 +6,12 @@ from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from costa.discover.core.hypotheses import candidate_hypotheses
-from costa.discover.core.naming import decide, same_physics, settled
+from costa.discover.core.naming import decide, explains_enough, same_physics, settled
 from costa.discover.core.outcome import Decision, Round
+from costa.discover.core.settings import DiscoverySettings
 from costa.physics import operating_points
 
 
@@ -171,3 +173,13 @@ def test_a_round_fits_the_chain_rivals_it_has_one_of_each_sensitivity(model):
     rivals = chain_rivals([h["part:bubble_thickness"], h["term:bath_energy"]], available, model, x, u)
     assert [g.key for g in rivals] == ["part:bath_conductivity", "part:bubble_voltage"]
     assert chain_rivals([h["term:bath_energy"]], available, model, x, u) == []
+
+
+@pytest.mark.parametrize(
+    ("explained", "bic_gain", "enough"), [(0.5, 10.0, True), (0.29, 20_000.0, False), (0.99, 9.9, False)]
+)
+def test_a_correction_explains_enough_where_it_removes_half_the_excess_and_pays_its_bic(explained, bic_gain, enough):
+    """Every route's threshold for an explanation (``min_explained`` 0.5, ``min_gain`` 10): a BIC gain of
+    20,000 does not make up for a correction that removes 29 % of the excess, nor 99 % for a gain of 9.9."""
+    candidate = SimpleNamespace(explained=explained, bic_gain=bic_gain)
+    assert explains_enough(candidate, DiscoverySettings()) is enough

@@ -15,7 +15,8 @@ from .outcome import Decision, Round
 from .settings import DiscoverySettings
 
 __all__ = [
-    "alike", "balance_moved", "causes_through", "chain", "chain_rivals", "conclude", "decide", "fit_outcome", "naming_order",
+    "alike", "balance_moved", "causes_through", "chain", "chain_rivals", "conclude", "decide", "explains_enough", "fit_outcome",
+    "naming_order",
     "removal", "same_physics", "settled", "small_form_error", "unfitted_chain",
 ]  # fmt: skip
 
@@ -59,6 +60,15 @@ def small_form_error(removed: float, left: float, settings: DiscoverySettings) -
     samples flag such an error; a correction that leaves 50 times the noise variance, though it
     removed 96 % of a far larger excess, is not one."""
     return removed >= settings.form_removed and left <= settings.form_excess
+
+
+def explains_enough(candidate, settings: DiscoverySettings) -> bool:
+    """Whether the best correction (an item with ``explained``, the share of the flagged channels' or
+    equations' excess it removes, and ``bic_gain``) explains enough to be an explanation at all: it removes
+    ``settings.min_explained`` of the excess and gains ``settings.min_gain`` of BIC.  Otherwise the round is
+    unexplained and the correction not applied, on every route: a shooting fit at its noise on the first
+    cells that removed 29 % of their excess would name a flow the filter still finds beyond noise."""
+    return candidate.explained >= settings.min_explained and candidate.bic_gain >= settings.min_gain
 
 
 def conclude(*, left: bool, tolerated: bool, undecided: bool) -> Decision:

@@ -41,7 +41,7 @@ from ...variables import STATES
 from ..core.fitted_terms import KEEP_LEVEL, FittedTerms, weakest_term
 from ..core.hypotheses import Hypothesis, candidate_hypotheses
 from ..core.library import Feature, constant_inputs
-from ..core.naming import conclude, decide, removal
+from ..core.naming import conclude, decide, explains_enough, removal
 from ..core.noise import estimate_noise
 from ..core.outcome import Decision, Round
 from ..core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
@@ -389,7 +389,7 @@ def discover_round(
         )
     ]
     where = _where(problem, model, z0, flagged)
-    if not good or good[0].explained < settings.min_explained or good[0].bic_gain < settings.min_gain:
+    if not good or not explains_enough(good[0], settings):
         top = ranking[0]
         verdict = (
             f"unexplained: equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate "

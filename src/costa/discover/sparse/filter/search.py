@@ -58,6 +58,7 @@ from ...core.naming import (
     chain_rivals,
     conclude,
     decide,
+    explains_enough,
     fit_outcome,
     naming_order,
     removal,
@@ -672,7 +673,7 @@ def decide_round(
         and c.rescued == ranking[0].rescued
         and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion
     ]
-    if not good or good[0].bic_gain < settings.min_gain or good[0].explained < settings.min_explained:
+    if not good or not explains_enough(good[0], settings):
         verdict = f"unexplained: channels {flagged} disagree beyond noise, but no candidate explains them"
         if ranking:
             top = ranking[0]

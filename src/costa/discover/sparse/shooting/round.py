@@ -22,7 +22,8 @@ composition not logged at every step), the first round runs:
    first, or a part of the first's chain that was not fitted, leaves it undecided too (listed: a
    name stands only where every such one was fitted).
    The best correction is applied either way where it removes at least ``min_explained`` of the
-   excess, as on the filter route.
+   excess, as on the filter route; where the best by BIC gain removes less, the round is unexplained
+   whatever its fit's channels (:func:`...core.naming.explains_enough`, every route's rule).
 
 Every closed form has at most three terms, so no rival holds a larger budget: a name is not bought
 by terms.  A fit at noise on every channel leaves nothing for a further round on these cells, so the
@@ -41,7 +42,7 @@ import numpy as np
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import constant_inputs
-from ...core.naming import alike, chain_rivals, removal, unfitted_chain
+from ...core.naming import alike, chain_rivals, explains_enough, removal, unfitted_chain
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, innovation_tests
@@ -248,6 +249,16 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             "its terms in every cell"
         )
         return SparseRound.unexplained_round(model, tests, order, verdict, measure_next=next_measured(order[:3]))
+    best = candidates[id(ranking.order[0])]
+    if not explains_enough(best, settings):
+        verdict = (
+            f"unexplained: channels {flagged} disagree beyond noise, but no closed form fitted on {cells} explains "
+            f"them: the best, {best.hypothesis.key}, {removal(best.explained, f'the excess on {cells}')}, less than "
+            f"{settings.min_explained:.0%}: not applied"
+        )
+        return SparseRound.unexplained_round(
+            model, tests, order, verdict, measure_next=next_measured(to_separate(best, [], order))
+        )
     chosen = candidates[id(ranking.equivalent[0])]
     equivalent = [candidates[id(f)] for f in ranking.equivalent[1:] + ranking.rivals]
     rivals = [candidates[id(f)] for f in ranking.rivals]
@@ -282,16 +293,13 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         return SparseRound.unexplained_round(model, tests, order, verdict, measure_next=recommended)
     left = ", ".join(f"{c} at {v:.3g}" for c, v in first.fit.beyond_noise.items())
     if decision is Decision.UNEXPLAINED:
-        applied = chosen.explained >= settings.min_explained
         verdict = (
             f"unexplained: the best correction, {chosen.hypothesis.key}, leaves {left} times the noise variance "
             f"on {cells}, so what is missing may be an explanation that did not fit here or more than one effect; "
-            f"the correction {effect}" + ("" if applied else f", less than {settings.min_explained:.0%}: not applied")
+            f"the correction {effect}"
         )
         recommended = next_measured(to_separate(chosen, [], order))
-        return SparseRound.unexplained_round(
-            model, tests, order, verdict, measure_next=recommended, chosen=chosen if applied else None
-        )
+        return SparseRound.unexplained_round(model, tests, order, verdict, measure_next=recommended, chosen=chosen)
     if decision is Decision.NOT_IDENTIFIABLE:
         recommended = next_measured(to_separate(chosen, rivals, order))
         keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
