@@ -9,7 +9,7 @@ import pytest
 
 from costa.discover.cases.shipped import add_noise
 from costa.discover.cases.unshipped import find_case
-from costa.discover.sparse.innovations import innovation_tests
+from costa.discover.sparse.innovations import ChannelTest, explained_share, innovation_tests
 from costa.discover.sparse.observed import estimate_states
 from costa.observe import observe
 from costa.physics import ablated_model, true_model
@@ -118,6 +118,21 @@ def test_unmeasured_ledge_is_recovered_and_a_wrong_model_is_flagged(truth):
     assert not any(t.flagged for t in innovation_tests(right.innovation, channels))
     wrong = innovation_tests(estimate_states(ablated_model(), y, u, channels, noise, 10.0).innovation, channels)
     assert {t.channel for t in wrong if t.flagged} >= {"x6"}
+
+
+def test_a_corrections_share_of_the_excess_counts_the_flagged_channels_variance_and_bias():
+    """The share of the flagged channels' excess a correction removes (every route's ``explained``): the
+    voltage's 2 noise variances and the bath temperature's 0.5 + a bias of 0.5 std (0.25) make 2.75; a
+    correction leaving the voltage at 1.5 and the temperature unbiased below its noise removes 1 - 0.5 / 2.75,
+    one that raises the voltage to 4 adds 1 / 2.75; a channel not flagged counts for nothing."""
+
+    def tests(voltage: float, temperature: float, bias: float) -> list[ChannelTest]:
+        values = {"U_cell": (voltage, 0.0), "x6": (temperature, bias), "c3": (5.0, 0.0)}
+        return [ChannelTest(c, 100, chi2, 0.0, b, 0.0, 0.0, True) for c, (chi2, b) in values.items()]
+
+    before, flagged = tests(3.0, 1.5, 0.5), ["U_cell", "x6"]
+    assert explained_share(before, tests(1.5, 0.9, 0.0), flagged) == pytest.approx(1 - 0.5 / 2.75)
+    assert explained_share(before, tests(4.0, 1.5, 0.5), flagged) == pytest.approx(-1 / 2.75)
 
 
 def test_a_crane_scale_reads_each_tap_once_and_weighs_what_left_the_cell(truth):

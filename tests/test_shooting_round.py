@@ -67,11 +67,9 @@ def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_conf
     assert terms["1"] == pytest.approx(-20570.0, rel=0.05), terms
 
 
-def _decided_by_one_fit(
-    config, removed: float, unfitted: tuple[str, float] | None = None, cells: int = 2, excess: float = 2.0
-):
+def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | None = None, cells: int = 2):
     """A plant round whose screen put ``term:bath_energy`` (one constant) first, at a BIC gain of 490,
-    fitted to remove ``removed`` of the voltage's ``excess`` noise variances in excess; ``unfitted``: another
+    fitted to remove ``removed`` of the voltage's 2 noise variances in excess; ``unfitted``: another
     hypothesis screened with a constant at the given BIC gain, not fitted; ``cells``: the record's cells
     to learn from (2: only those the round fits)."""
     from costa.discover.core.settings import DiscoverySettings
@@ -108,8 +106,8 @@ def _decided_by_one_fit(
             chi2={"U_cell": 1.0},
         )  # fmt: skip
 
-    base = shot([], 1000.0, 1.0 + excess)
-    fit = shot([-1e6], 500.0, 1.0 + excess * (1.0 - removed))  # a megawatt less heat in the bath
+    base = shot([], 1000.0, 3.0)  # 2 noise variances in excess
+    fit = shot([-1e6], 500.0, 3.0 - 2.0 * removed)  # a megawatt less heat in the bath
     flagged = ChannelTest(
         channel="U_cell",
         samples=samples["U_cell"],
@@ -124,7 +122,7 @@ def _decided_by_one_fit(
     forms = [form] + ([screened(*unfitted)] if unfitted else [])
     screen = shooting_round.ShotScreen(tests=[flagged], base=base, forms=forms, candidates=[form])
     settings = DiscoverySettings(shooting_cells=2, bootstrap=50)
-    at_noise = [replace(flagged, chi2_per_dof=1.0 + excess * (1.0 - removed), flagged=removed < 1)]
+    at_noise = [replace(flagged, chi2_per_dof=3.0 - 2.0 * removed, flagged=removed < 1)]
     return shooting_round.decide_by_shooting(
         model, screen, [shooting_round.ShotFit(fit=fit, covariance=np.eye(1), tests=at_noise)], obs, settings
     )
@@ -144,17 +142,21 @@ def test_an_unexplained_rounds_best_correction_is_applied_where_it_removes_half_
     assert decided.verdict.endswith("not applied") != applied
 
 
-@pytest.mark.parametrize(("removed", "named"), [(0.3, False), (0.6, True)])
-def test_a_fit_at_its_noise_is_named_only_where_it_removes_half_the_excess(default_config, removed, named):
-    """Every route's rule (``min_explained``, 0.5): a shooting fit that leaves the voltage at its noise on
-    the first cells, where the uncorrected fit was only 0.1 noise variances beyond it, is named where it
-    removes 60 % of that excess; removing 30 %, it explains too little to be named or applied.  On a drawn
-    regimes record a transfer was named so, wrongly, from a fit that removed 29 %."""
-    decided = _decided_by_one_fit(default_config, removed, excess=0.1)
+@pytest.mark.parametrize(("share", "named"), [(0.3, False), (0.6, True)])
+def test_a_fit_at_its_noise_is_named_only_where_its_filter_removes_half_the_excess(
+    default_config, monkeypatch, share, named
+):
+    """Every route's rule (``min_explained``, 0.5, of the flagged channels' excess on every cell by the
+    corrected model's filter, the filter route's measure): a shooting fit that leaves the voltage at its
+    noise on the first cells is named where its filter removes 60 % of the flagged excess; at 30 % it
+    explains too little to be named or applied.  On a drawn regimes record a flow into the cryolite was
+    named wrongly as one into the ledge, whose filter added 5 % to the excess."""
+    monkeypatch.setattr(shooting_round, "filtered_share", lambda *args: share)
+    decided = _decided_by_one_fit(default_config, 1.0)
     assert (decided.named is not None) == named, decided.verdict
     assert (decided.chosen is not None) == named
     if not named:
-        assert "removes 30% of the excess on cells 0-1, less than 50%: not applied" in decided.verdict
+        assert "removes 30% of their excess on every cell by its filter, less than 50%: not applied" in decided.verdict
 
 
 @pytest.mark.parametrize(("gain", "named"), [(None, True), (300.0, True), (420.0, False)])

@@ -66,8 +66,9 @@ def explains_enough(candidate, settings: DiscoverySettings) -> bool:
     """Whether the best correction (an item with ``explained``, the share of the flagged channels' or
     equations' excess it removes, and ``bic_gain``) explains enough to be an explanation at all: it removes
     ``settings.min_explained`` of the excess and gains ``settings.min_gain`` of BIC.  Otherwise the round is
-    unexplained and the correction not applied, on every route: a shooting fit at its noise on the first
-    cells that removed 29 % of their excess would name a flow the filter still finds beyond noise."""
+    unexplained and the correction not applied, on every route (on sparse data the share is the filter's
+    on every cell, :func:`..sparse.innovations.explained_share`: a transfer fitted by shooting to two
+    cells' noise added to the pot voltage's excess on the others and was named wrongly)."""
     return candidate.explained >= settings.min_explained and candidate.bic_gain >= settings.min_gain
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ChannelTest", "innovation_tests"]
+__all__ = ["ChannelTest", "explained_share", "innovation_excess", "innovation_tests"]
 
 
 @dataclass(frozen=True)
@@ -94,6 +94,19 @@ def innovation_tests(
             )
         )
     return tests
+
+
+def innovation_excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
+    """The summed excess of the channels' innovations beyond white unit noise (variance and squared
+    bias, in noise variances)."""
+    by_name = {t.channel: t for t in tests}
+    return sum(max(by_name[c].chi2_per_dof - 1, 0.0) + by_name[c].bias ** 2 for c in channels if c in by_name)
+
+
+def explained_share(before: Sequence[ChannelTest], after: Sequence[ChannelTest], channels: Sequence[str]) -> float:
+    """The share of the ``channels``' innovation excess under one model (``before``) that a corrected
+    model's filter (``after``) removes: negative where it adds to it."""
+    return 1 - innovation_excess(after, channels) / max(innovation_excess(before, channels), 1e-300)
 
 
 def _packed(e: np.ndarray) -> np.ndarray:

@@ -68,7 +68,7 @@ from ...core.naming import (
 from ...core.outcome import Decision
 from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
-from ..innovations import ChannelTest
+from ..innovations import ChannelTest, explained_share, innovation_excess
 from ..measure_next import Recommendation, measure_next, to_separate
 from ..observations import Observations
 from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains
@@ -103,12 +103,6 @@ SAME_EFFECT = 1e-4
 #: hypotheses that are a relative change (an input's gain, a material property's factor): their
 #: constant alone is a whole closed form, a fixed relative error, tried beside the regression's
 RELATIVE_KINDS = ("input", "property")
-
-
-def _excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:
-    """Summed excess of the channels' innovations beyond white unit noise (variance and bias)."""
-    by_name = {t.channel: t for t in tests}
-    return sum(max(by_name[c].chi2_per_dof - 1, 0.0) + by_name[c].bias ** 2 for c in channels if c in by_name)
 
 
 def _dispersion(ranking: Sequence[SparseCandidate]) -> float:
@@ -399,7 +393,7 @@ def _fit(
     if first:
         _one_term_if_better(candidate, model, obs, settings, smoothed=smoothed, rich=rich, rng=rng)
     flagged = [t.channel for t in tests if t.flagged]
-    candidate.explained = 1 - _excess(candidate.tests_after, flagged) / max(_excess(tests, flagged), 1e-300)
+    candidate.explained = explained_share(tests, candidate.tests_after, flagged)
     log.info(
         "%s: %s, log-likelihood %.1f, in %.1f s",
         score.hypothesis.key, candidate.formula, np.sum(candidate.log_likelihood), time.perf_counter() - started,
@@ -785,7 +779,7 @@ def could_explain_as_well(chosen: SparseCandidate, screen: Screen, margin: float
 def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
     """:func:`...core.naming.small_form_error` of the chosen correction: what it removes of the flagged
     channels' excess, and the most any channel is left beyond white unit noise (chi2/dof - 1 + bias^2)."""
-    left = max((_excess([t], [t.channel]) for t in chosen.tests_after), default=0.0)
+    left = max((innovation_excess([t], [t.channel]) for t in chosen.tests_after), default=0.0)
     return small_form_error(chosen.explained, left, settings)
 
 
