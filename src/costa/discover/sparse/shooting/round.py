@@ -340,18 +340,18 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
 
 
 def filtered_share(
-    chosen: SparseCandidate,
+    candidate: SparseCandidate,
     obs: Observations,
     tests: Sequence[ChannelTest],
     flagged: Sequence[str],
     settings: DiscoverySettings,
 ) -> float:
     """The share of the ``flagged`` channels' excess on every cell (the uncorrected model's filter's
-    ``tests``) that ``chosen``'s correction removes, by its own filter from the start it searches
+    ``tests``) that ``candidate``'s correction removes, by its own filter from the start it searches
     itself: the filter route's measure (``explained``), for the rule every route names by.  A shooting
     fit's own excess on the first cells does not stand in for it: near noise there already, a share of
     it says little (a wrong transfer removed 29 % of it, a right conductivity 26 %)."""
-    after, _ = channel_tests(chosen.corrected, obs.searched_again(chosen.corrected), settings, backward=False)
+    after, _ = channel_tests(candidate.corrected, obs.searched_again(candidate.corrected), settings, backward=False)
     return explained_share(tests, after, flagged)
 
 
