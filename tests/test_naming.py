@@ -181,5 +181,4 @@ def test_a_round_fits_the_chain_rivals_it_has_one_of_each_sensitivity(model):
 def test_a_correction_explains_enough_where_it_removes_half_the_excess_and_pays_its_bic(explained, bic_gain, enough):
     """Every route's threshold for an explanation (``min_explained`` 0.5, ``min_gain`` 10): a BIC gain of
     20,000 does not make up for a correction that removes 29 % of the excess, nor 99 % for a gain of 9.9."""
-    candidate = SimpleNamespace(explained=explained, bic_gain=bic_gain)
-    assert explains_enough(candidate, DiscoverySettings()) is enough
+    assert explains_enough(explained, bic_gain, DiscoverySettings()) is enough

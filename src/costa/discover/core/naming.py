@@ -62,14 +62,14 @@ def small_form_error(removed: float, left: float, settings: DiscoverySettings) -
     return removed >= settings.form_removed and left <= settings.form_excess
 
 
-def explains_enough(candidate, settings: DiscoverySettings) -> bool:
-    """Whether the best correction (an item with ``explained``, the share of the flagged channels' or
-    equations' excess it removes, and ``bic_gain``) explains enough to be an explanation at all: it removes
+def explains_enough(explained: float, bic_gain: float, settings: DiscoverySettings) -> bool:
+    """Whether the best correction, removing ``explained`` (a share) of the flagged channels' or equations'
+    excess and gaining ``bic_gain`` of BIC, explains enough to be an explanation at all: it removes
     ``settings.min_explained`` of the excess and gains ``settings.min_gain`` of BIC.  Otherwise the round is
     unexplained and the correction not applied, on every route (on sparse data the share is the filter's
     on every cell, :func:`..sparse.innovations.explained_share`: a transfer fitted by shooting to two
     cells' noise added to the pot voltage's excess on the others and was named wrongly)."""
-    return candidate.explained >= settings.min_explained and candidate.bic_gain >= settings.min_gain
+    return explained >= settings.min_explained and bic_gain >= settings.min_gain
 
 
 def conclude(*, left: bool, tolerated: bool, undecided: bool) -> Decision:

@@ -389,7 +389,7 @@ def discover_round(
         )
     ]
     where = _where(problem, model, z0, flagged)
-    if not good or not explains_enough(good[0], settings):
+    if not good or not explains_enough(good[0].explained, good[0].bic_gain, settings):
         top = ranking[0]
         verdict = (
             f"unexplained: equations {[STATES[i] for i in flagged]} disagree beyond noise, but no candidate "

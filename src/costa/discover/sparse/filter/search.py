@@ -667,7 +667,7 @@ def decide_round(
         and c.rescued == ranking[0].rescued
         and ranking[0].bic_gain - c.bic_gain <= settings.equivalence * dispersion
     ]
-    if not good or not explains_enough(good[0], settings):
+    if not good or not explains_enough(good[0].explained, good[0].bic_gain, settings):
         verdict = f"unexplained: channels {flagged} disagree beyond noise, but no candidate explains them"
         if ranking:
             top = ranking[0]

@@ -252,7 +252,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         return SparseRound.unexplained_round(model, tests, order, verdict, measure_next=next_measured(order[:3]))
     best = candidates[id(ranking.order[0])]
     share = filtered_share(best, obs, tests, flagged, settings)
-    if not explains_enough(SimpleNamespace(explained=share, bic_gain=best.bic_gain), settings):
+    if not explains_enough(share, best.bic_gain, settings):
         verdict = (
             f"unexplained: channels {flagged} disagree beyond noise, but no closed form fitted on {cells} explains "
             f"them: the best, {best.hypothesis.key}, {removal(share, 'their excess on every cell')} by its filter, "
