@@ -183,13 +183,14 @@ def test_a_voltage_fit_is_not_named_for_the_parts_that_act_on_the_cell_only_thro
 
 def test_a_fit_that_removes_nearly_all_the_excess_is_named_with_its_forms_small_error(model):
     """Where the uncorrected fit's excess is 20 noise variances, a fit leaving the voltage at 1.5 (a
-    small form error that 34 000 samples flag) removes 97 % of it and is named, "form incomplete";
-    at 1.6 (0.6 beyond noise, more than the 0.5 the filter route allows) it is unexplained."""
+    small form error that 34 000 samples flag) and the bath temperature at noise removes 97 % of it
+    and is named, "form incomplete"; at 2.1 (the two channels 0.55 beyond noise on average, more than
+    the 0.5 every route allows) it is unexplained."""
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     x, u = operating_points(np.random.default_rng(0), 20)
     small = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 1.5})
     ranking = ranked_fits([small], model, x, u, PENALTY, 20.0)
     assert ranking.decision() is Decision.FORM_INCOMPLETE and ranking.names == ["input:u3", "term:alf3_mass"]
-    large = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 1.6})
+    large = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 2.1})
     assert ranked_fits([large], model, x, u, PENALTY, 20.0).decision() is Decision.UNEXPLAINED
     assert ranked_fits([small], model, x, u, PENALTY, 1.0).decision() is Decision.UNEXPLAINED

@@ -23,7 +23,7 @@ class DiscoverySettings:
     min_gain: float = 10.0  # BIC gain a term (and a correction) must bring
     min_explained: float = 0.5  # share of the excess residual a correction must remove
     # sparse data: a correction leaving channels flagged is named ("form incomplete") only if it removes
-    # this share of their excess and leaves no channel more than form_excess noise variances beyond noise
+    # this share of their excess and leaves the channels on average within form_excess noise variances of noise
     form_removed: float = 0.9
     form_excess: float = 0.5
     screen_keep: int = 8  # hypotheses that get a closed-form fit after screening (plus ties)

@@ -32,8 +32,8 @@ One round on the current model:
    equivalence margin, or the two are undecided as in 4 (:func:`at_budget`);
 6. a named correction whose closed form leaves a channel slightly disagreeing (hundreds of
    thousands of samples make a small form error significant) stays named where it removes
-   ``form_removed`` of the flagged excess and leaves no channel more than ``form_excess`` noise
-   variances beyond noise, and the verdict says "form incomplete" with what
+   ``form_removed`` of the flagged excess and leaves the channels, on average, within ``form_excess``
+   noise variances of noise, and the verdict says "form incomplete" with what
    is left; the rounds stop there.  One that leaves more is unexplained, before 4 and 5 are
    asked (:func:`...core.naming.conclude`, the order of every route).
 """
@@ -778,8 +778,10 @@ def could_explain_as_well(chosen: SparseCandidate, screen: Screen, margin: float
 
 def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
     """:func:`...core.naming.small_form_error` of the chosen correction: what it removes of the flagged
-    channels' excess, and the most any channel is left beyond white unit noise (chi2/dof - 1 + bias^2)."""
-    left = max((innovation_excess([t], [t.channel]) for t in chosen.tests_after), default=0.0)
+    channels' excess, and what it leaves beyond white unit noise (chi2/dof - 1 + bias^2), the mean over
+    the measured channels."""
+    channels = [t.channel for t in chosen.tests_after]
+    left = innovation_excess(chosen.tests_after, channels) / len(channels) if channels else 0.0
     return small_form_error(chosen.explained, left, settings)
 
 
