@@ -52,16 +52,17 @@ def removal(share: float, excess: str = "the excess") -> str:
     return f"adds {-share:.0%} to {excess}" if share < 0 else f"removes {share:.0%} of {excess}"
 
 
-def small_form_error(removed: float, left: float, settings: DiscoverySettings) -> bool:
+def small_form_error(removed: float, left: Sequence[float], settings: DiscoverySettings) -> bool:
     """Whether a correction that leaves channels beyond their noise is still named, its closed form
     "incomplete" (the rule of both sparse routes): it removes ``settings.form_removed`` of the
     uncorrected model's excess (``removed``, a share) and leaves the measured channels, on average, no
-    more than ``settings.form_excess`` noise variances beyond their noise (``left``).  Hundreds of
+    more than ``settings.form_excess`` noise variances beyond their noise (``left``: each channel's, in
+    noise variances).  Hundreds of
     thousands of samples flag such an error, most in the channel most sensitive to it (a saturating
     flow fitted by a linear form left the cell voltage at 1.6 noise variances and the rest near noise);
     a correction that leaves 50 times the noise variance, though it removed 96 % of a far larger
     excess, is not one."""
-    return removed >= settings.form_removed and left <= settings.form_excess
+    return removed >= settings.form_removed and float(np.mean(left or [0.0])) <= settings.form_excess
 
 
 def explains_enough(explained: float, bic_gain: float, settings: DiscoverySettings) -> bool:

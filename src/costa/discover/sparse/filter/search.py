@@ -778,10 +778,8 @@ def could_explain_as_well(chosen: SparseCandidate, screen: Screen, margin: float
 
 def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
     """:func:`...core.naming.small_form_error` of the chosen correction: what it removes of the flagged
-    channels' excess, and what it leaves beyond white unit noise (chi2/dof - 1 + bias^2), the mean over
-    the measured channels."""
-    channels = [t.channel for t in chosen.tests_after]
-    left = innovation_excess(chosen.tests_after, channels) / len(channels) if channels else 0.0
+    channels' excess, and what it leaves of each channel beyond white unit noise (chi2/dof - 1 + bias^2)."""
+    left = [innovation_excess([t], [t.channel]) for t in chosen.tests_after]
     return small_form_error(chosen.explained, left, settings)
 
 

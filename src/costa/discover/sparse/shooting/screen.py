@@ -199,10 +199,9 @@ class FittedForm:
     def small_form_error(self, excess_before: float, settings: DiscoverySettings) -> bool:
         """Whether the fit, not at its noise, leaves only a small error of its closed form
         (:func:`...core.naming.small_form_error`) against the uncorrected fit's excess ``excess_before``; what
-        it leaves is the mean over the channels of their mean square beyond 1.  The voltage's 34 000 samples
-        flag 1.03; on tapping_shortfall the true model's own fit left it at 1.06 through three continuity
-        stages."""
-        left = float(np.mean([max(v - 1.0, 0.0) for v in self.fit.chi2.values()] or [0.0]))
+        it leaves of each channel is its mean square beyond 1.  The voltage's 34 000 samples flag 1.03; on
+        tapping_shortfall the true model's own fit left it at 1.06 through three continuity stages."""
+        left = [max(v - 1.0, 0.0) for v in self.fit.chi2.values()]
         removed = 1.0 - self.fit.excess / excess_before if excess_before > 0 else 0.0
         return not self.fit.at_noise and small_form_error(removed, left, settings)
 
