@@ -57,11 +57,10 @@ def small_form_error(removed: float, left: Sequence[float], settings: DiscoveryS
     "incomplete" (the rule of both sparse routes): it removes ``settings.form_removed`` of the
     uncorrected model's excess (``removed``, a share) and leaves the measured channels, on average, no
     more than ``settings.form_excess`` noise variances beyond their noise (``left``: each channel's, in
-    noise variances).  Hundreds of
-    thousands of samples flag such an error, most in the channel most sensitive to it (a saturating
-    flow fitted by a linear form left the cell voltage at 1.6 noise variances and the rest near noise);
-    a correction that leaves 50 times the noise variance, though it removed 96 % of a far larger
-    excess, is not one."""
+    noise variances).  Hundreds of thousands of samples flag such an error, most in the channel most
+    sensitive to it (a saturating flow fitted by a linear form left the cell voltage at 1.6 noise
+    variances and the rest near noise); a correction that leaves 50 times the noise variance, though it
+    removed 96 % of a far larger excess, is not one."""
     return removed >= settings.form_removed and float(np.mean(left or [0.0])) <= settings.form_excess
 
 
