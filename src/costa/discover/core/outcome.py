@@ -41,8 +41,9 @@ class Decision(enum.Enum):
 class Round:
     """What one round found, on any route: ``tests`` of the equations or measured channels,
     ``ranking`` the fitted candidates (best first), ``chosen`` the correction applied (or None),
-    ``equivalent`` those as good as it; ``name``: what the chosen correction is named as where
-    that is not its own hypothesis (the flow missing from the one balance it moves)."""
+    ``equivalent`` those the data do not tell from it (its rivals too, where undecided); ``name``: what
+    the chosen correction is named as where that is not its own hypothesis (the flow missing from the
+    one balance it moves)."""
 
     model: CellModel
     tests: list

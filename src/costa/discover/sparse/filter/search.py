@@ -34,8 +34,10 @@ One round on the current model:
    thousands of samples make a small form error significant) stays named where it removes
    ``form_removed`` of the flagged excess and leaves the channels, on average, within ``form_excess``
    noise variances of noise, and the verdict says "form incomplete" with what
-   is left; the rounds stop there.  One that leaves more is unexplained, before 4 and 5 are
-   asked (:func:`...core.naming.conclude`, the order of every route).
+   is left; the rounds stop there, unless a fitted candidate of other physics passes as well
+   (it leaves every channel at noise or only a small form error): whatever its BIC, the two are
+   undecided as in 4 (:func:`...core.naming.incomplete_rivals`).  One that leaves more is unexplained,
+   before 4 and 5 are asked (:func:`...core.naming.conclude`, the order of every route).
 """
 
 from __future__ import annotations
@@ -60,6 +62,7 @@ from ...core.naming import (
     decide,
     explains_enough,
     fit_outcome,
+    incomplete_rivals,
     naming_order,
     removal,
     small_form_error,
@@ -709,8 +712,19 @@ def decide_round(
         else []
     )
     matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
-    undecided = different + matched
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
+    tolerated = _small_form_error(chosen, settings)
+    incomplete = (
+        incomplete_rivals(
+            chosen,
+            [c for c in ranking if c not in good and c not in matched],
+            lambda c: _passes(c, chosen, settings),
+            model,
+        )
+        if unexplained and tolerated
+        else []
+    )
+    undecided = different + matched + incomplete
     unfitted = [
         h
         for h in could_explain_as_well(chosen, screen, settings.equivalence * dispersion)
@@ -722,7 +736,7 @@ def decide_round(
         log.info("%s: the parts of its chain %s were not fitted", chosen.hypothesis.key, [h.key for h in chained])
     decision = conclude(
         left=bool(unexplained),
-        tolerated=_small_form_error(chosen, settings),
+        tolerated=tolerated,
         undecided=bool(undecided or unfitted or chained),
     )
     recommended = []
@@ -735,6 +749,11 @@ def decide_round(
         )
         if matched:
             what += " (" + "; ".join(_budget_words(chosen, b) for b in budget if b.matched) + ")"
+        if incomplete:
+            what += (
+                f" ({', '.join(c.hypothesis.key for c in [chosen, *incomplete])}: each closed form incomplete, and a "
+                "difference of BIC between incomplete forms does not tell the physics)"
+            )
         if len(unfitted) > len(chained):
             listed = ", ".join(h.key for h in unfitted if h not in chained)
             what += f", and the screen could not exclude {listed}, not fitted"
@@ -759,7 +778,7 @@ def decide_round(
     separated = recommended[0].channel if decision is Decision.NOT_IDENTIFIABLE and recommended else None
     effect = removal(chosen.explained, "the flagged channels' excess")
     return SparseRound(
-        model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=equivalent, decision=decision, separated_by=separated, verdict=f"{what}; the correction {effect}", dispersion=dispersion, at_budget=budget,
+        model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=equivalent + undecided * (decision is Decision.NOT_IDENTIFIABLE), decision=decision, separated_by=separated, verdict=f"{what}; the correction {effect}", dispersion=dispersion, at_budget=budget,
         measure_next=recommended, not_fitted=unfitted,
     )  # fmt: skip
 
@@ -781,6 +800,17 @@ def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> b
     channels' excess, and what it leaves of each channel beyond white unit noise (chi2/dof - 1 + bias^2)."""
     left = [innovation_excess([t], [t.channel]) for t in chosen.tests_after]
     return small_form_error(chosen.explained, left, settings)
+
+
+def _passes(candidate: SparseCandidate, chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
+    """Whether a fitted candidate would itself be named beside the chosen one but for BIC: it holds as many
+    trajectories and leaves every channel at its noise or only a small form error (:func:`_small_form_error`)."""
+    return (
+        bool(candidate.features)
+        and candidate.rescued == chosen.rescued
+        and np.isfinite(candidate.bic_gain)
+        and (not any(t.flagged for t in candidate.tests_after) or _small_form_error(candidate, settings))
+    )
 
 
 def _next(candidates: Sequence[SparseCandidate], obs: Observations, margin: float) -> list[Recommendation]:
