@@ -623,6 +623,24 @@ def test_fits_of_other_physics_whose_forms_pass_too_are_rivals_of_an_incomplete_
     assert rivals(thickness, bubbles) == [bubbles] and rivals(bubbles, cell) == []
 
 
+def test_a_candidate_of_other_physics_that_screened_ahead_leaves_the_round_undecided(model):
+    """The screen's free delta bounds what any closed form of a hypothesis could gain: where one of other
+    physics gained more than the chosen one's, fitted or not, the chosen one leads only by the term library's
+    forms (a freezing rate with an exponential law lost its closed form to a heat capacity's).  Not one of
+    the same sensitivity, not one that gained less."""
+    from costa.discover.sparse.filter.search import _screened_ahead
+
+    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
+
+    def screened(key, gain):
+        return SimpleNamespace(hypothesis=hypotheses[key], score=SimpleNamespace(log_likelihood_gain=gain))
+
+    chosen = screened("term:alf3_mass", 4312.5)
+    ahead, behind = screened("property:alumina_impurity", 4399.8), screened("property:alumina_impurity", 4300.0)
+    same = screened("part:alf3_neutralisation", 5000.0)
+    assert _screened_ahead(chosen, [chosen, ahead, behind, same], model) == [ahead]
+
+
 @pytest.mark.integration
 def test_refined_coefficients_recover_a_hidden_flow_whose_terms_span_decades(default_config):
     """The settling alumina u1 (0.3 - 0.015 superheat) [kg/s], refined on three full-length partial

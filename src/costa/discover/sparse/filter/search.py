@@ -26,7 +26,9 @@ One round on the current model:
    unmeasured channel would separate them; the best one still corrects the model for
    forecasting, and the rounds stop there; so too where a hypothesis that was not fitted
    could still explain them (its free delta gained, on the screened trajectories, within the margin
-   of what the chosen closed form gains there: :func:`could_explain_as_well`), listed;
+   of what the chosen closed form gains there: :func:`could_explain_as_well`), listed, and where a
+   candidate of other physics gained more than the chosen one in the screen, fitted or not: the
+   chosen one then leads only by the term library's closed forms (:func:`_screened_ahead`);
 5. terms cannot buy a name: the chosen correction's closed form, cut to each rival's (fewer)
    terms and refined again, must still beat that rival (of different physics) by the
    equivalence margin, or the two are undecided as in 4 (:func:`at_budget`);
@@ -724,7 +726,10 @@ def decide_round(
         if unexplained and tolerated
         else []
     )
-    undecided = different + matched + incomplete
+    outscreened = [
+        c for c in _screened_ahead(chosen, ranking, model) if c not in good and c not in matched and c not in incomplete
+    ]
+    undecided = different + matched + incomplete + outscreened
     unfitted = [
         h
         for h in could_explain_as_well(chosen, screen, settings.equivalence * dispersion)
@@ -749,6 +754,11 @@ def decide_round(
         )
         if matched:
             what += " (" + "; ".join(_budget_words(chosen, b) for b in budget if b.matched) + ")"
+        if outscreened:
+            what += (
+                f" ({', '.join(c.hypothesis.key for c in outscreened)}: a free delta gained more in the screen than "
+                f"{chosen.hypothesis.key}'s, which leads only by the term library's closed forms)"
+            )
         if incomplete:
             what += (
                 f" ({', '.join(c.hypothesis.key for c in [chosen, *incomplete])}: each closed form incomplete, and a "
@@ -800,6 +810,25 @@ def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> b
     channels' excess, and what it leaves of each channel beyond white unit noise (chi2/dof - 1 + bias^2)."""
     left = [innovation_excess([t], [t.channel]) for t in chosen.tests_after]
     return small_form_error(chosen.explained, left, settings)
+
+
+def _screened_ahead(
+    chosen: SparseCandidate, ranking: Sequence[SparseCandidate], model: CellModel
+) -> list[SparseCandidate]:
+    """The candidates of other physics than ``chosen`` (:func:`...core.hypotheses.same_sensitivity`) whose free
+    delta gained more likelihood in the screen than ``chosen``'s, fitted or not: the data, before any closed form,
+    prefer them, so ``chosen`` leads only where the term library holds their law and fits it worse, which a law
+    outside it defeats (dev seed 601: a freezing rate with an exponential law, its free delta ahead by
+    87 log-likelihood units, its transfer's closed form removing 15 % of the excess where the solid cryolite's heat
+    capacity removed 72 % and left every channel at noise)."""
+    lead = chosen.score.log_likelihood_gain
+    return [
+        c
+        for c in ranking
+        if c is not chosen
+        and c.score.log_likelihood_gain > lead
+        and not same_sensitivity(c.hypothesis, chosen.hypothesis, model)
+    ]
 
 
 def _passes(candidate: SparseCandidate, chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
