@@ -194,23 +194,3 @@ def test_a_fit_that_removes_nearly_all_the_excess_is_named_with_its_forms_small_
     large = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 2.1})
     assert ranked_fits([large], model, x, u, PENALTY, 20.0).decision() is Decision.UNEXPLAINED
     assert ranked_fits([small], model, x, u, PENALTY, 1.0).decision() is Decision.UNEXPLAINED
-
-
-def test_fits_of_other_physics_with_incomplete_forms_are_rivals_whatever_their_bic(model):
-    """Where the first fit's closed form is incomplete (the voltage left at 1.5 noise variances, 97 % of
-    the excess removed), a fit of other physics whose form is incomplete too is its rival though it gains
-    300 less BIC: the truth's law may lie outside the library, its form as incomplete, and BIC between
-    two incomplete forms ranks the forms.  A fit of other physics that leaves more (the voltage at 3.0)
-    is no rival, nor is an incomplete form where the first fits at noise."""
-    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    x, u = operating_points(np.random.default_rng(0), 20)
-    first = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 1.5})
-    incomplete = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 600.0, {"x6": 1.0, "U_cell": 1.6})
-    worse = _fitted(model, hypotheses, "property:alumina_impurity", 6.0, 600.0, {"x6": 1.0, "U_cell": 3.0})
-    ranking = ranked_fits([first, incomplete], model, x, u, PENALTY, 20.0)
-    assert ranking.rivals == [incomplete] and ranking.decision() is Decision.NOT_IDENTIFIABLE
-    ranking = ranked_fits([first, worse], model, x, u, PENALTY, 20.0)
-    assert ranking.rivals == [] and ranking.decision() is Decision.FORM_INCOMPLETE
-    at_noise = _fitted(model, hypotheses, "input:u3", 0.1, 900.0, {"x6": 1.0, "U_cell": 1.0})
-    ranking = ranked_fits([at_noise, incomplete], model, x, u, PENALTY, 20.0)
-    assert ranking.rivals == [] and ranking.decision() is Decision.NAMED

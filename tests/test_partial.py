@@ -577,52 +577,6 @@ def test_a_correction_that_leaves_a_small_form_error_is_named_with_its_form_inco
     assert round_(0.96, 48.3, undecided=True).decision is Decision.UNEXPLAINED
 
 
-def test_fits_of_other_physics_whose_forms_pass_too_are_rivals_of_an_incomplete_form(model):
-    """Where the chosen correction's closed form is incomplete, a fitted candidate of other physics is its
-    rival, whatever its BIC, where it would pass too: it holds the same trajectories and leaves every
-    channel at noise or a small form error (95 % removed, the voltage at 1.3).  Not one of the same
-    sensitivity (a constant AlF3 sink and a change of its neutralisation; the bubble voltage and the cell
-    voltage, which it adds to), not one that leaves the voltage at 5 of six channels' noise variances, not
-    one whose filter is lost on a trajectory more.  Parts of the voltage's chain are rivals: with a free
-    correction each is the other, and only their incomplete forms would tell them apart."""
-    from costa.discover.core.naming import incomplete_rivals
-    from costa.discover.sparse.filter.search import _passes
-    from costa.discover.sparse.innovations import ChannelTest
-
-    hypotheses = {h.key: h for h in candidate_hypotheses(model)}
-    settings = DiscoverySettings()
-
-    def fitted(key, voltage_chi2, rescued=1):
-        tests = [
-            ChannelTest(
-                channel=c,
-                samples=1000,
-                chi2_per_dof=voltage_chi2 if c == "U_cell" else 1.0,
-                z=9.0 * (c == "U_cell"),
-                bias=0.0,
-                bias_z=0.0,
-                whiteness_z=0.0,
-                flagged=c == "U_cell",
-            )  # fmt: skip
-            for c in ("U_cell", "x5", "x6", "x8", "c2", "c3")
-        ]
-        return SimpleNamespace(
-            hypothesis=hypotheses[key], features=[None], tests_after=tests, explained=0.95, rescued=rescued, bic_gain=100.0
-        )  # fmt: skip
-
-    def rivals(chosen, *fits):
-        return incomplete_rivals(chosen, [chosen, *fits], lambda c: _passes(c, chosen, settings), model)
-
-    sink, other = fitted("term:alf3_mass", 1.3), fitted("property:alumina_impurity", 1.3)
-    neutralisation = fitted("part:alf3_neutralisation", 1.3)
-    large, lost = fitted("property:alumina_impurity", 5.0), fitted("property:alumina_impurity", 1.3, rescued=0)
-    assert rivals(sink, neutralisation, other, large, lost) == [other]
-    thickness, bubbles, cell = (
-        fitted(f"part:{p}", 1.3) for p in ("bubble_thickness", "bubble_voltage", "cell_voltage")
-    )
-    assert rivals(thickness, bubbles) == [bubbles] and rivals(bubbles, cell) == []
-
-
 def test_a_candidate_of_other_physics_that_screened_ahead_leaves_the_round_undecided(model):
     """The screen's free delta bounds what any closed form of a hypothesis could gain: where one of other
     physics gained more than the chosen one's, fitted or not, the chosen one leads only by the term library's

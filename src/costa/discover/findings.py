@@ -511,9 +511,11 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
                   f"Correction [{correction['unit']}]: `{correction['closed_form']}`", ""]  # fmt: skip
         lines += _coefficient_lines(correction)
     if r["equivalent"]:
-        lines += ["", "Equivalent under these measurements (they fit the measured channels as well):"]
+        lines += ["", "Equivalent under these measurements (the data do not tell them from it; the verdict says why):"]
         lines += [
-            f"- `{e['hypothesis']}`: `{e['closed_form']}` (BIC gain {e['bic_gain']:.0f})" for e in r["equivalent"]
+            f"- `{e['hypothesis']}`: `{e['closed_form']}`"
+            + ("" if e["bic_gain"] is None else f" (BIC gain {e['bic_gain']:.0f})")
+            for e in r["equivalent"]
         ]
     if r.get("not_fitted"):
         lines += ["", "Not excluded by the screen and not fitted (no name stands while they stand):"]

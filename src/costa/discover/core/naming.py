@@ -16,7 +16,7 @@ from .settings import DiscoverySettings
 
 __all__ = [
     "alike", "balance_moved", "causes_through", "chain", "chain_rivals", "conclude", "decide", "explains_enough", "fit_outcome",
-    "incomplete_rivals", "naming_order",
+    "naming_order",
     "removal", "same_physics", "settled", "small_form_error", "unfitted_chain",
 ]  # fmt: skip
 
@@ -62,23 +62,6 @@ def small_form_error(removed: float, left: Sequence[float], settings: DiscoveryS
     variances and the rest near noise); a correction that leaves 50 times the noise variance, though it
     removed 96 % of a far larger excess, is not one."""
     return removed >= settings.form_removed and float(np.mean(left or [0.0])) <= settings.form_excess
-
-
-def incomplete_rivals(chosen, fits: Sequence, passes, model: CellModel) -> list:
-    """The fits (items with a ``hypothesis``) outside the BIC margin of ``chosen``, whose closed form is
-    incomplete, that are rivals nonetheless: they ``passes`` (a fit -> bool: it leaves every channel at
-    its noise, or only a small form error, :func:`small_form_error`) and their hypothesis acts unlike the
-    chosen one's (:func:`.hypotheses.same_sensitivity`), whatever their BIC or how alike their fitted
-    corrections act (every sparse route's rule).  The truth's law may lie outside the term library, its
-    closed form as incomplete as the chosen one's; over hundreds of thousands of samples a difference of
-    BIC between two incomplete forms measures how well the library fits each, not which physics is
-    missing (a bubble voltage with a threshold was fitted as the bubbles' thickness, 99 % removed,
-    ahead of the bubble voltage's own form, 97 %, by 98 000 of BIC)."""
-    return [
-        f
-        for f in fits
-        if f is not chosen and passes(f) and not same_sensitivity(f.hypothesis, chosen.hypothesis, model)
-    ]
 
 
 def explains_enough(explained: float, bic_gain: float, settings: DiscoverySettings) -> bool:

@@ -36,10 +36,8 @@ One round on the current model:
    thousands of samples make a small form error significant) stays named where it removes
    ``form_removed`` of the flagged excess and leaves the channels, on average, within ``form_excess``
    noise variances of noise, and the verdict says "form incomplete" with what
-   is left; the rounds stop there, unless a fitted candidate of other physics passes as well
-   (it leaves every channel at noise or only a small form error): whatever its BIC, the two are
-   undecided as in 4 (:func:`...core.naming.incomplete_rivals`).  One that leaves more is unexplained,
-   before 4 and 5 are asked (:func:`...core.naming.conclude`, the order of every route).
+   is left; the rounds stop there.  One that leaves more is unexplained, before 4 and 5 are
+   asked (:func:`...core.naming.conclude`, the order of every route).
 """
 
 from __future__ import annotations
@@ -64,7 +62,6 @@ from ...core.naming import (
     decide,
     explains_enough,
     fit_outcome,
-    incomplete_rivals,
     naming_order,
     removal,
     small_form_error,
@@ -715,21 +712,8 @@ def decide_round(
     )
     matched = [c for c, b in zip(fewer, budget, strict=True) if b.matched]
     unexplained = [t.channel for t in chosen.tests_after if t.flagged]
-    tolerated = _small_form_error(chosen, settings)
-    incomplete = (
-        incomplete_rivals(
-            chosen,
-            [c for c in ranking if c not in good and c not in matched],
-            lambda c: _passes(c, chosen, settings),
-            model,
-        )
-        if unexplained and tolerated
-        else []
-    )
-    outscreened = [
-        c for c in _screened_ahead(chosen, ranking, model) if c not in good and c not in matched and c not in incomplete
-    ]
-    undecided = different + matched + incomplete + outscreened
+    outscreened = [c for c in _screened_ahead(chosen, ranking, model) if c not in good and c not in matched]
+    undecided = different + matched + outscreened
     unfitted = [
         h
         for h in could_explain_as_well(chosen, screen, settings.equivalence * dispersion)
@@ -741,7 +725,7 @@ def decide_round(
         log.info("%s: the parts of its chain %s were not fitted", chosen.hypothesis.key, [h.key for h in chained])
     decision = conclude(
         left=bool(unexplained),
-        tolerated=tolerated,
+        tolerated=_small_form_error(chosen, settings),
         undecided=bool(undecided or unfitted or chained),
     )
     recommended = []
@@ -758,11 +742,6 @@ def decide_round(
             what += (
                 f" ({', '.join(c.hypothesis.key for c in outscreened)}: a free delta gained more in the screen than "
                 f"{chosen.hypothesis.key}'s, which leads only by the term library's closed forms)"
-            )
-        if incomplete:
-            what += (
-                f" ({', '.join(c.hypothesis.key for c in [chosen, *incomplete])}: each closed form incomplete, and a "
-                "difference of BIC between incomplete forms does not tell the physics)"
             )
         if len(unfitted) > len(chained):
             listed = ", ".join(h.key for h in unfitted if h not in chained)
@@ -829,17 +808,6 @@ def _screened_ahead(
         and c.score.log_likelihood_gain > lead
         and not same_sensitivity(c.hypothesis, chosen.hypothesis, model)
     ]
-
-
-def _passes(candidate: SparseCandidate, chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
-    """Whether a fitted candidate would itself be named beside the chosen one but for BIC: it holds as many
-    trajectories and leaves every channel at its noise or only a small form error (:func:`_small_form_error`)."""
-    return (
-        bool(candidate.features)
-        and candidate.rescued == chosen.rescued
-        and np.isfinite(candidate.bic_gain)
-        and (not any(t.flagged for t in candidate.tests_after) or _small_form_error(candidate, settings))
-    )
 
 
 def _next(candidates: Sequence[SparseCandidate], obs: Observations, margin: float) -> list[Recommendation]:

@@ -17,8 +17,7 @@ composition not logged at every step), the first round runs:
 4. the fits ranked (:func:`.screen.ranked_fits`): the first is named where it leaves every
    channel at its noise, or removes nearly all of the excess ("form incomplete"), and no fit of
    other physics comes within :data:`.screen.MARGIN` of its BIC gain; a fit of other physics
-   within it leaves the round undecided, and so does one whose form passes too where the first's is
-   incomplete; one that leaves a channel beyond its noise unexplained;
+   within it leaves the round undecided; one that leaves a channel beyond its noise unexplained;
    a hypothesis the screen could not exclude and that was not fitted, of other physics than the
    first, or a part of the first's chain that was not fitted, leaves it undecided too (listed: a
    name stands only where every such one was fitted).
@@ -311,7 +310,6 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         keys = ", ".join(c.hypothesis.key for c in [chosen, *rivals])
         verdict = (
             f"not identifiable: {keys} fit the measured channels on {cells} within {MARGIN:g} of BIC gain"
-            + (", or each with an incomplete closed form" if ranking.incomplete else "")
             if rivals
             else f"not identifiable: {keys} is the best fit on {cells}"
         )

@@ -23,7 +23,7 @@ import numpy as np
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
 from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature
-from ...core.naming import balance_moved, conclude, decide, incomplete_rivals, naming_order, small_form_error
+from ...core.naming import balance_moved, conclude, decide, naming_order, small_form_error
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..observations import Observations
@@ -250,8 +250,7 @@ def ranked_fits(
     uncorrected fit's excess ``excess_before`` (:meth:`FittedForm.small_form_error`), come first, by
     BIC gain: differences in the excess there are noise.  The rest follow by their excess (to 0.1
     noise variances), then BIC gain; where the first is one of them, nothing is told apart (the
-    outcome is unexplained).  Where the first's form is incomplete, every fit of other physics whose form
-    passes as well is its rival, whatever its BIC (:func:`...core.naming.incomplete_rivals`).  Where the
+    outcome is unexplained).  Where the
     first is a flow (:attr:`...core.hypotheses.Hypothesis.is_flow`) that changes one balance's rate alone,
     the flow missing from that balance is named with it, and first where :func:`...core.naming.naming_order`
     says so: on top_heat_loss a constant 20.6 kW taken from the bath's heat of freezing was the best fit
@@ -273,8 +272,6 @@ def ranked_fits(
     first = order[0]
     close = [f for f in order if good(f) and first.bic_gain - f.bic_gain < MARGIN]
     chosen, others, rivals = decide(close, (), model, x, u)
-    if not first.fit.at_noise:
-        rivals += incomplete_rivals(chosen, [f for f in order if f not in close], good, model)
     named = [chosen, *(f for f in others if all(f is not r for r in rivals))]
     keys = [f.hypothesis.key for f in named]
     balance = balance_moved(first.corrected, model, x, u) if first.hypothesis.is_flow else None
