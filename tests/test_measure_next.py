@@ -3,11 +3,13 @@ that the added record names one."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy.stats import norm
 
-from costa.discover.sparse.measure_next import decides, measure_next, sampled_every
+from costa.discover.sparse.measure_next import decides, measure_next, sampled_every, to_separate
 from costa.discover.sparse.observations import Observations
 from costa.physics import true_model
 
@@ -101,3 +103,13 @@ def test_differences_while_the_filter_settles_and_dominated_instruments_count_fo
         if r.channel == "x5"
     ]
     assert [(r.every_s, r.separation) for r in dips] == [(86400, pytest.approx(np.sqrt(2 * 16)))]
+
+
+def test_a_rival_without_a_closed_form_is_not_put_to_a_measurement():
+    """A rival that screened ahead of the chosen correction may have no closed form (no corrected model):
+    a measurement separates the fitted ones only, or the chosen one and the next best fitted."""
+    chosen, fitted, next_best = (SimpleNamespace(corrected=object(), states=object()) for _ in range(3))
+    unfitted = SimpleNamespace(corrected=None, states=None)
+    ranking = [chosen, unfitted, fitted, next_best]
+    assert to_separate(chosen, [unfitted, fitted], ranking) == [chosen, fitted]
+    assert to_separate(chosen, [unfitted], ranking) == [chosen, fitted, next_best]

@@ -96,10 +96,11 @@ def sampled_every(obs: Observations) -> dict[str, float]:
 
 
 def to_separate(chosen, rivals: Sequence, ranking: Sequence, count: int = 3) -> list:
-    """The fitted candidates a measurement should tell apart: the chosen one and its rivals, or, where it
-    has none (its outcome undecided for another reason: hypotheses not fitted, a channel left), the
-    chosen one and the next best fitted, ``count`` in all."""
+    """The fitted candidates a measurement should tell apart: the chosen one and its fitted rivals (a rival
+    that screened ahead may have no closed form), or, where it has none (its outcome undecided for another
+    reason: hypotheses not fitted, a channel left), the chosen one and the next best fitted, ``count`` in all."""
     fitted = [c for c in ranking if c is not chosen and c.corrected is not None and c.states is not None]
+    rivals = [r for r in rivals if any(r is c for c in fitted)]
     return [chosen, *rivals] if rivals else [chosen, *fitted[: count - 1]]
 
 

@@ -765,9 +765,10 @@ def decide_round(
                 f"{1 - chosen.explained:.1%} of the flagged channels' excess)"
             )
     separated = recommended[0].channel if decision is Decision.NOT_IDENTIFIABLE and recommended else None
+    listed = equivalent + undecided if decision is Decision.NOT_IDENTIFIABLE else equivalent  # its rivals too
     effect = removal(chosen.explained, "the flagged channels' excess")
     return SparseRound(
-        model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=equivalent + undecided * (decision is Decision.NOT_IDENTIFIABLE), decision=decision, separated_by=separated, verdict=f"{what}; the correction {effect}", dispersion=dispersion, at_budget=budget,
+        model=model, tests=tests, ranking=ranking, chosen=chosen, equivalent=listed, decision=decision, separated_by=separated, verdict=f"{what}; the correction {effect}", dispersion=dispersion, at_budget=budget,
         measure_next=recommended, not_fitted=unfitted,
     )  # fmt: skip
 
