@@ -127,6 +127,7 @@ def _sparse_round(index: int, r: Round) -> dict[str, Any]:
     found: dict[str, Any] = {
         "round": index,
         "model": r.model.name,
+        "richer_library": r.rich,
         "channels_tested": [
             {
                 "channel": t.channel,
@@ -485,7 +486,7 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
     """A round on partial measurements: the channels' innovation tests, the verdict, the correction
     (named only when the measurements can tell it from the other explanations)."""
     lines = [
-        f"## Round {r['round']}",
+        f"## Round {r['round']}" + (" (richer term library)" if r["richer_library"] else ""),
         "",
         "Innovations of the smoother on each measured channel (white, zero-mean and of unit variance under a right model).",
         "",

@@ -37,7 +37,10 @@ One round on the current model:
    ``form_removed`` of the flagged excess and leaves the channels, on average, within ``form_excess``
    noise variances of noise, and the verdict says "form incomplete" with what
    is left; the rounds stop there.  One that leaves more is unexplained, before 4 and 5 are
-   asked (:func:`...core.naming.conclude`, the order of every route).
+   asked (:func:`...core.naming.conclude`, the order of every route);
+7. a round the basic term library leaves unexplained is fitted again with the richer one (every
+   square and pairwise product of the main variables) and decided by 4-6 again; that decision stands
+   where it is not unexplained too (:func:`decided_round`).
 """
 
 from __future__ import annotations
@@ -45,7 +48,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -632,18 +635,32 @@ def fit_share(
 
 def discover_round(
     model: CellModel, obs: Observations, *, settings: DiscoverySettings, rng: np.random.Generator,
-    rich: bool = False, named: Sequence[str] = (),
+    named: Sequence[str] = (),
 ) -> SparseRound:  # fmt: skip
     """One round on the current model (see the module docstring); ``named``: what earlier rounds named."""
     screen = screen_round(model, obs, settings, rng, named)
-    return decide_round(
-        model,
-        obs,
-        settings=settings,
-        screen=screen,
-        ranking=fit_share(screen, model, obs=obs, settings=settings, rich=rich, share=slice(None), first=not named),
-        named=named,
-    )
+    fits = fit_share(screen, model, obs=obs, settings=settings, rich=False, share=slice(None), first=not named)
+    return decided_round(model, obs, settings=settings, screen=screen, fits=fits, named=named)
+
+
+def decided_round(
+    model: CellModel, obs: Observations, *, settings: DiscoverySettings, screen: Screen,
+    fits: list[SparseCandidate], named: Sequence[str] = (),
+) -> SparseRound:  # fmt: skip
+    """The round :func:`decide_round` decides from the basic term library's ``fits``; where that leaves it
+    unexplained (no closed form explains enough, or the best leaves channels beyond noise), the screen's
+    candidates fitted again with the richer library (every square and pairwise product of the main
+    variables: a law that reads two variables the basic library does not pair) decide it, where they
+    end it otherwise: named or not identifiable by the same rules, rivals fitted alike."""
+    found = decide_round(model, obs, settings=settings, screen=screen, ranking=fits, named=named)
+    if found.decision is not Decision.UNEXPLAINED or not fits:
+        return found
+    rich = fit_share(screen, model, obs=obs, settings=settings, rich=True, share=slice(None), first=not named)
+    richer = decide_round(model, obs, settings=settings, screen=screen, ranking=rich, named=named)
+    log.info("the richer term library: %s", richer.verdict)
+    if richer.decision is Decision.UNEXPLAINED:
+        return replace(found, verdict=f"{found.verdict}; so too with the richer term library")
+    return replace(richer, rich=True)
 
 
 def decide_round(
@@ -848,10 +865,9 @@ def discover_sparse(
             screen, fits = first_round
             if screen.candidates and int(rng.integers(2**63)) != screen.seed:
                 raise ValueError("the first round's screen was made with another discovery seed; run it again")
-            found = decide_round(current, placed, settings=settings, screen=screen, ranking=fits, named=named)
+            found = decided_round(current, placed, settings=settings, screen=screen, fits=fits, named=named)
         else:
-            # a round goes on only after a clean name (no channel left flagged): the basic library again
-            found = discover_round(current, placed, settings=settings, rng=rng, rich=False, named=named)
+            found = discover_round(current, placed, settings=settings, rng=rng, named=named)
         rounds.append(found)
         if found.named is None or found.form_incomplete:
             break
