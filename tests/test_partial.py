@@ -131,6 +131,22 @@ def test_no_effect_under_partial_measurements_names_nothing(default_config):
     assert result.corrected is start
 
 
+def _one_round_on(truth, name: str):
+    """One filter round of the true model on 4 cells x 1000 steps made by ``truth``, the bath and wall
+    temperature, cell voltage and composition measured with noise."""
+    settings = SimulationSettings.from_config(load_config()["simulation"])
+    trajectories, _ = simulate_set(truth, replace(settings, steps=1000), 4, 5, 0, name)
+    channels, noise = ("x6", "x8", "U_cell", "c2", "c3"), np.array([0.1, 0.1, 1e-3, 2e-5, 2e-5])
+    clean = observe(truth, trajectories.x, trajectories.u, channels)
+    y = clean + np.random.default_rng(4).normal(size=clean.shape) * noise
+    return discover_round(
+        true_model(),
+        Observations(y=y, u=trajectories.u, channels=channels, noise=noise, dt=10.0),
+        settings=DiscoverySettings(bootstrap=50),
+        rng=np.random.default_rng(0),
+    )
+
+
 @pytest.mark.integration
 def test_a_case_built_to_be_unidentifiable_names_nothing_and_says_what_would_separate():
     """Cryolite turning into metal, with the metal mass unmeasured: the measured channels (bath and
@@ -139,19 +155,8 @@ def test_a_case_built_to_be_unidentifiable_names_nothing_and_says_what_would_sep
     but is different physics: the round must name neither, list both, and say that the metal
     mass x5 would separate them, while its correction still closes the gap (coefficient exact)."""
     model = true_model()
-    settings = SimulationSettings.from_config(load_config()["simulation"])
     hidden = next(h for h in candidate_hypotheses(model) if h.key == "transfer:cryolite_mass->metal_mass")
-    truth = hidden.corrected(model, hidden.features()[:1], [0.01])
-    trajectories, _ = simulate_set(truth, replace(settings, steps=1000), 4, 5, 0, "unidentifiable")
-    channels, noise = ("x6", "x8", "U_cell", "c2", "c3"), np.array([0.1, 0.1, 1e-3, 2e-5, 2e-5])
-    clean = observe(truth, trajectories.x, trajectories.u, channels)
-    y = clean + np.random.default_rng(4).normal(size=clean.shape) * noise
-    found = discover_round(
-        model,
-        Observations(y=y, u=trajectories.u, channels=channels, noise=noise, dt=10.0),
-        settings=DiscoverySettings(bootstrap=50),
-        rng=np.random.default_rng(0),
-    )
+    found = _one_round_on(hidden.corrected(model, hidden.features()[:1], [0.01]), "unidentifiable")
     assert {"c2", "c3"} <= set(found.flagged)
     assert not found.identifiable and found.named is None and found.verdict.startswith("not identifiable")
     keys = {found.chosen.hypothesis.key} | {c.hypothesis.key for c in found.equivalent}
@@ -168,22 +173,11 @@ def test_a_law_of_two_variables_the_basic_library_does_not_pair_is_named_with_th
     with every pairwise product, the round names the gain with the one true term, its coefficient
     within 1 %."""
     model = true_model()
-    settings = SimulationSettings.from_config(load_config()["simulation"])
     hidden = next(h for h in candidate_hypotheses(model) if h.key == "input:u2")
     product = "(x1 - 3000)*(u2 - 140000)"
     assert product not in {f.name for f in hidden.features()}
     term = next(f for f in hidden.features(rich=True) if f.name == product)
-    truth = hidden.corrected(model, [term], [2e-9])
-    trajectories, _ = simulate_set(truth, replace(settings, steps=1000), 4, 5, 0, "rich")
-    channels, noise = ("x6", "x8", "U_cell", "c2", "c3"), np.array([0.1, 0.1, 1e-3, 2e-5, 2e-5])
-    clean = observe(truth, trajectories.x, trajectories.u, channels)
-    y = clean + np.random.default_rng(4).normal(size=clean.shape) * noise
-    found = discover_round(
-        model,
-        Observations(y=y, u=trajectories.u, channels=channels, noise=noise, dt=10.0),
-        settings=DiscoverySettings(bootstrap=50),
-        rng=np.random.default_rng(0),
-    )
+    found = _one_round_on(hidden.corrected(model, [term], [2e-9]), "rich")
     assert found.rich and found.named is not None and found.named.key == "input:u2"
     assert [f.name for f in found.chosen.features] == [product]
     assert abs(found.chosen.coefficients[0] / 2e-9 - 1) < 0.01
