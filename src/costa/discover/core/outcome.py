@@ -43,7 +43,8 @@ class Round:
     ``ranking`` the fitted candidates (best first), ``chosen`` the correction applied (or None),
     ``equivalent`` those the data do not tell from it (its rivals too, where undecided); ``name``: what
     the chosen correction is named as where that is not its own hypothesis (the flow missing from the
-    one balance it moves)."""
+    one balance it moves); ``rich``: its candidates were fitted with the richer term library (a full-state
+    round after the first; a sparse round the basic library left unexplained)."""
 
     model: CellModel
     tests: list
@@ -53,6 +54,7 @@ class Round:
     verdict: str
     decision: Decision
     name: Hypothesis | None = None
+    rich: bool = False
 
     @property
     def identifiable(self) -> bool:

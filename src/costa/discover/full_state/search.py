@@ -76,14 +76,13 @@ class Candidate(FittedTerms):
 class FullStateRound(Round):
     """What one round found (or that it found nothing) on every state (:class:`..core.outcome.Round`):
     ``where``, the operating variables each flagged equation's residual correlates with most;
-    ``rich``: it used the larger library; ``window``: steps per weak-form window of its tests."""
+    ``window``: steps per weak-form window of its tests."""
 
     tests: list[EquationTest]
     ranking: list[Candidate]
     chosen: Candidate | None
     equivalent: list[Candidate]
     where: dict[str, list[tuple[str, float]]]
-    rich: bool = False
     window: int = 0
 
     @property

@@ -100,8 +100,7 @@ class SparseRound(Round):
     ``separated_by``: the unmeasured channel that would tell the chosen correction from those as good;
     ``dispersion``: the best correction's remaining misfit (on the filter route), by which the
     equivalence window was widened; ``not_fitted``: hypotheses the screen could not exclude that were
-    not fitted (of other physics than the chosen one): while they stand, nothing is named; ``rich``: its
-    candidates were fitted with the richer term library (the basic one left the round unexplained).
+    not fitted (of other physics than the chosen one): while they stand, nothing is named.
     """
 
     tests: list[ChannelTest]
@@ -114,7 +113,6 @@ class SparseRound(Round):
     measure_next: list[Recommendation] = field(default_factory=list)
     route: str = "filter"  # how the round was decided: "filter" (:mod:`.filter`) or "shooting" (:mod:`.shooting`)
     not_fitted: list[Hypothesis] = field(default_factory=list)
-    rich: bool = False
 
     @classmethod
     def quiet(cls, model: CellModel, tests: list[ChannelTest]) -> SparseRound:
