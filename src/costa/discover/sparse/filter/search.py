@@ -655,8 +655,8 @@ def decided_round(
     found = decide_round(model, obs, settings=settings, screen=screen, ranking=fits, named=named)
     if found.decision is not Decision.UNEXPLAINED or not fits:
         return found
-    rich = fit_share(screen, model, obs=obs, settings=settings, rich=True, share=slice(None), first=not named)
-    richer = decide_round(model, obs, settings=settings, screen=screen, ranking=rich, named=named)
+    refitted = fit_share(screen, model, obs=obs, settings=settings, rich=True, share=slice(None), first=not named)
+    richer = decide_round(model, obs, settings=settings, screen=screen, ranking=refitted, named=named)
     log.info("the richer term library: %s", richer.verdict)
     if richer.decision is Decision.UNEXPLAINED:
         return replace(found, verdict=f"{found.verdict}; so too with the richer term library")

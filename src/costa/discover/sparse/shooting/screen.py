@@ -250,10 +250,9 @@ def ranked_fits(
     uncorrected fit's excess ``excess_before`` (:meth:`FittedForm.small_form_error`), come first, by
     BIC gain: differences in the excess there are noise.  The rest follow by their excess (to 0.1
     noise variances), then BIC gain; where the first is one of them, nothing is told apart (the
-    outcome is unexplained).  Where the
-    first is a flow (:attr:`...core.hypotheses.Hypothesis.is_flow`) that changes one balance's rate alone,
-    the flow missing from that balance is named with it, and first where :func:`...core.naming.naming_order`
-    says so: on top_heat_loss a constant 20.6 kW taken from the bath's heat of freezing was the best fit
+    outcome is unexplained).  Where the first is a flow (:attr:`...core.hypotheses.Hypothesis.is_flow`)
+    that changes one balance's rate alone, the flow missing from that balance is named with it, and first
+    where :func:`...core.naming.naming_order` says so: on top_heat_loss a constant 20.6 kW taken from the bath's heat of freezing was the best fit
     of the bath's heat loss.  Not a property: a bath heat capacity 10 % lower changes the bath energy's
     rate alone, and is that property, not a missing flow (it was named wrongly so on bath_heat_capacity).
     A part of the voltage's chain (:func:`...core.naming.chain`) is not named for the others: a round
