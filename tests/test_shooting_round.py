@@ -10,6 +10,7 @@ import pytest
 
 from costa.discover.cases.tables import case_tables
 from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.settings import DiscoverySettings
 from costa.discover.findings import findings
 from costa.discover.pipeline import discovery_route, run_discovery, search_settings, starting_model
 from costa.discover.sparse.pipeline import fit_first_round, observations, screen_first_round
@@ -72,7 +73,6 @@ def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | No
     fitted to remove ``removed`` of the voltage's 2 noise variances in excess; ``unfitted``: another
     hypothesis screened with a constant at the given BIC gain, not fitted; ``cells``: the record's cells
     to learn from (2: only those the round fits)."""
-    from costa.discover.core.settings import DiscoverySettings
     from costa.discover.sparse.innovations import ChannelTest
     from costa.discover.sparse.observed import NOMINAL_STATE
     from costa.discover.sparse.shooting.fit import ShootingFit
@@ -81,8 +81,8 @@ def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | No
     config = copy.deepcopy(config)
     config["discovery"]["sensor_sets"]["plant"].update(hours=2, trajectories=cells, held_out_trajectories=1)
     train, _ = case_tables(config, "no_effect", "plant")
-    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "plant")
     model = starting_model(config, "full")
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "plant").with_start(model)
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     starts, samples = np.tile(NOMINAL_STATE, (2, 2, 1)), {"U_cell": obs.y.shape[1] * 2}
 
@@ -181,3 +181,20 @@ def test_a_correction_fitted_on_the_first_cells_is_not_named_where_the_other_cel
     decided = _decided_by_one_fit(default_config, 1.0, cells=3)
     assert decided.named is None and decided.chosen is None
     assert "term:bath_energy, does not hold on the other cells" in decided.verdict, decided.verdict
+
+
+def test_a_round_is_not_decided_on_cells_whose_first_states_were_not_searched(default_config):
+    """The screen tests the uncorrected model from each cell's searched first state, and the corrected
+    models' filters search theirs again (``filtered_share``); a record handed over without its searched
+    starts would start them from the nominal state instead, where the right feed gain, fitted on a drawn
+    plant record, added 302 % to the flagged excess that it removes from searched starts.  So the
+    decision refuses one."""
+    config = copy.deepcopy(default_config)
+    config["discovery"]["sensor_sets"]["plant"].update(hours=2, trajectories=2, held_out_trajectories=1)
+    train, _ = case_tables(config, "no_effect", "plant")
+    obs = observations(train, declared_noise(config["discovery"]["sensor_sets"], "plant"), "plant")
+    screen = shooting_round.ShotScreen(tests=[], base=None, forms=[], candidates=[])
+    model = starting_model(config, "full")
+    with pytest.raises(ValueError, match="first states searched"):
+        shooting_round.decide_by_shooting(model, screen, [], obs, DiscoverySettings(shooting_cells=2))
+    assert shooting_round.decide_by_shooting(model, screen, [], obs.with_start(model), DiscoverySettings()).verdict

@@ -135,9 +135,11 @@ def fit_first_round(
 def _shooting_round(
     start: CellModel, obs: Observations, settings: DiscoverySettings, first_round: tuple | None
 ) -> SparseRound:
-    """The round :mod:`.shooting.round` decides, from the jobs' records where given."""
+    """The round :mod:`.shooting.round` decides, from the jobs' records where given; every cell's first
+    state searched under ``start``, as the screen searched it."""
+    obs = obs.with_start(start)
     if first_round is None:
-        screen = screen_by_shooting(start, obs.with_start(start), settings)
+        screen = screen_by_shooting(start, obs, settings)
         fits = fit_by_shooting(start, screen, obs, settings, slice(None))
     else:
         screen, fits = read_shot_screen(first_round[0], start), read_shot_fits(first_round[1])

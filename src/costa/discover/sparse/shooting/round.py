@@ -49,6 +49,7 @@ from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, explained_share, innovation_tests
 from ..measure_next import measure_next, to_separate
 from ..observations import Observations
+from ..observed import start_is_searched
 from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains
 from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit, states_eliminated
 from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms
@@ -195,7 +196,12 @@ def _assessed(model, hypothesis, features, few: Observations, fit: ShootingFit, 
 def decide_by_shooting(
     model: CellModel, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings: DiscoverySettings
 ) -> SparseRound:
-    """Rank the fits (``fits`` in the screen's candidates' order) and decide the round (step 4)."""
+    """Rank the fits (``fits`` in the screen's candidates' order) and decide the round (step 4); ``obs``
+    with each cell's first state searched under ``model`` where the screen searched it (:meth:`.Observations.with_start`:
+    the corrected models' filters search theirs again, and one started from the nominal state instead is lost on
+    a cell that the right correction follows at its noise)."""
+    if obs.start is None and start_is_searched(obs.y, obs.channels):
+        raise ValueError("decide_by_shooting: obs must carry the first states searched under the starting model")
     return replace(_decided(model, screen, fits, obs, settings), route="shooting")
 
 
