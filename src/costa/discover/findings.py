@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
@@ -142,6 +143,7 @@ def _sparse_round(index: int, r: Round) -> dict[str, Any]:
             }
             for t in r.tests
         ],  # fmt: skip
+        "left_out_cell": None if r.left_out is None else dataclasses.asdict(r.left_out),
         "flagged": r.flagged,
         "decided_by": DECIDED_BY[r.route] if r.flagged else None,
         "verdict": r.verdict,
@@ -491,6 +493,8 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
         "Innovations of the smoother on each measured channel (white, zero-mean and of unit variance under a right model).",
         "",
     ]
+    if r.get("left_out_cell"):
+        lines += [f"Cell {r['left_out_cell']['cell']} left out: it alone disagreed (the verdict says where).", ""]
     lines.append("| channel | meaning | samples | chi2/dof | z | bias | bias z | whiteness z | disagrees |")
     lines.append("|---|---|---|---|---|---|---|---|---|")
     lines += [

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ChannelTest", "explained_share", "innovation_excess", "innovation_tests"]
+__all__ = ["ChannelTest", "LoneCell", "explained_share", "innovation_excess", "innovation_tests", "lone_cell"]
 
 
 @dataclass(frozen=True)
@@ -94,6 +94,58 @@ def innovation_tests(
             )
         )
     return tests
+
+
+@dataclass(frozen=True)
+class LoneCell:
+    """A cell whose innovations alone carry every flag of a model's channel tests: with it left out, no
+    channel disagrees beyond noise.  An effect missing from the model is missing in every cell; one cell
+    alone says that the estimator did not follow it there (a first state placed far off, a cell near the
+    alumina pole).  ``chi2``: the mean square of each channel flagged with it, on this cell; ``hours``: the
+    stretch (from the record's start) where it disagrees most: its largest run of squared innovations beyond
+    twice the noise variance, on the channel with the most excess on it."""
+
+    cell: int
+    chi2: dict[str, float]
+    hours: tuple[float, float]
+
+    def describe(self, channels: Sequence[str]) -> str:
+        """'cell 11 (U_cell 3.25, c3 17.1 times the noise variance, most in hours 16-32)'."""
+        values = ", ".join(f"{c} {self.chi2[c]:.3g}" for c in channels if c in self.chi2)
+        return f"cell {self.cell} ({values} times the noise variance, most in hours {self.hours[0]:.0f}-{self.hours[1]:.0f})"
+
+
+def lone_cell(
+    innovation: np.ndarray, channels: Sequence[str], tests: Sequence[ChannelTest], step_s: float, first_step: int,
+    z_threshold: float, min_excess: float,
+) -> LoneCell | None:  # fmt: skip
+    """The cell (of the innovations (n, K, C), ``tests`` their channel tests) that alone carries every
+    flagged channel (:class:`LoneCell`), or None where no one cell does (or none is flagged, or there is one
+    cell).  The cells are tried by their flagged channels' summed excess, largest first; ``step_s`` [s]
+    and ``first_step`` (the record's step of ``innovation[:, 0]``) place the stretch in hours."""
+    flagged = [channels.index(t.channel) for t in tests if t.flagged]
+    n = innovation.shape[0]
+    if not flagged or n < 2:
+        return None
+    excess = np.nansum(innovation[..., flagged] ** 2 - 1.0, axis=1)  # (n, flagged)
+    for cell in np.argsort(-excess.sum(1)):
+        rest = innovation_tests(np.delete(innovation, cell, axis=0), channels, z_threshold, min_excess)
+        if not any(t.flagged for t in rest):
+            worst = flagged[int(np.argmax(excess[cell]))]
+            begin, end = _largest_run(innovation[cell, :, worst] ** 2 - 2.0)
+            e = innovation[cell][..., flagged]
+            chi2 = {channels[c]: float(np.nanmean(e[:, i] ** 2)) for i, c in enumerate(flagged)}
+            hours = tuple(float((first_step + k) * step_s / 3600.0) for k in (begin, end))
+            return LoneCell(cell=int(cell), chi2=chi2, hours=hours)
+    return None
+
+
+def _largest_run(values: np.ndarray) -> tuple[int, int]:
+    """[first, last] step of the run of samples with the largest sum of ``values`` (K,) (NaN: not sampled)."""
+    sampled = np.flatnonzero(np.isfinite(values))
+    totals = np.concatenate([[0.0], np.cumsum(values[sampled])])
+    end = int(np.argmax(totals[1:] - np.minimum.accumulate(totals)[:-1]))
+    return int(sampled[int(np.argmin(totals[: end + 1]))]), int(sampled[end])
 
 
 def innovation_excess(tests: Sequence[ChannelTest], channels: Sequence[str]) -> float:

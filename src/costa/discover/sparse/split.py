@@ -22,7 +22,7 @@ from typing import Any
 from ...physics import CellModel
 from ..core.hypotheses import candidate_hypotheses
 from .filter.search import Screen
-from .innovations import ChannelTest
+from .innovations import ChannelTest, LoneCell
 from .observations import Observations
 from .rounds import HypothesisScore, SparseCandidate
 from .shooting.fit import ShootingFit
@@ -56,6 +56,7 @@ def write_screen(screen: Screen, start, path: str | Path) -> None:
         "screened": screen.screened,
         "seed": screen.seed,
         "start": start,
+        "left_out": _lone_record(screen.left_out),
     }
     Path(path).write_bytes(pickle.dumps(record))
 
@@ -68,6 +69,7 @@ def read_screen(path: str | Path, model: CellModel) -> tuple[Screen, Any]:
     record["tests"] = [ChannelTest(**t) for t in record["tests"]]
     record["candidates"] = [_score(s, hypotheses) for s in record["candidates"]]
     record["others"] = [_score(s, hypotheses) for s in record["others"]]
+    record["left_out"] = _lone(record.get("left_out"))
     return Screen(**record), start
 
 
@@ -124,6 +126,7 @@ def write_shot_screen(screen: ShotScreen, path: str | Path) -> None:
         "base": None if screen.base is None else dataclasses.asdict(screen.base),
         "forms": [_form_record(f) for f in screen.forms],
         "candidates": [position[id(f)] for f in screen.candidates],
+        "left_out": _lone_record(screen.left_out),
     }
     Path(path).write_bytes(pickle.dumps(record))
 
@@ -135,7 +138,18 @@ def read_shot_screen(path: str | Path, model: CellModel) -> ShotScreen:
     forms = [_form(f, hypotheses) for f in record["forms"]]
     base = None if record["base"] is None else ShootingFit(**record["base"])
     tests = [ChannelTest(**t) for t in record["tests"]]
-    return ShotScreen(tests=tests, base=base, forms=forms, candidates=[forms[i] for i in record["candidates"]])
+    return ShotScreen(
+        tests=tests, base=base, forms=forms, candidates=[forms[i] for i in record["candidates"]],
+        left_out=_lone(record.get("left_out")),
+    )  # fmt: skip
+
+
+def _lone_record(lone: LoneCell | None) -> dict | None:
+    return None if lone is None else dataclasses.asdict(lone)
+
+
+def _lone(record: dict | None) -> LoneCell | None:
+    return None if record is None else LoneCell(**(record | {"hours": tuple(record["hours"])}))
 
 
 def write_shot_fits(fits: Sequence[ShotFit], indices: Sequence[int], path: str | Path) -> None:

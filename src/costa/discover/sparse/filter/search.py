@@ -73,10 +73,18 @@ from ...core.naming import (
 from ...core.outcome import Decision
 from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
-from ..innovations import ChannelTest, explained_share, innovation_excess
+from ..innovations import ChannelTest, LoneCell, explained_share, innovation_excess
 from ..measure_next import Recommendation, measure_next, to_separate
 from ..observations import Observations
-from ..rounds import BudgetComparison, HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains
+from ..rounds import (
+    BudgetComparison,
+    HypothesisScore,
+    SparseCandidate,
+    SparseRound,
+    channel_tests,
+    likelihood_gains,
+    round_tests,
+)
 from .likelihood import (
     CONVERGED,
     MAX_PASSES,
@@ -581,6 +589,9 @@ class Screen:
     # of the first trajectories they were screened
     others: list[HypothesisScore] = field(default_factory=list)
     screened: int = 0
+    left_out: LoneCell | None = (
+        None  # a cell that alone disagreed, left out of the tests (:func:`..rounds.round_tests`)
+    )
 
     @property
     def flagged(self) -> list[str]:
@@ -592,10 +603,12 @@ def screen_round(
 ) -> Screen:
     """Test the channels; where one disagrees, screen every hypothesis and keep the best of each
     physics (steps 1-2 of the module docstring).  Draws the round's fitting seed from ``rng``."""
-    tests, base = channel_tests(model, obs, settings)
+    tests, base, left_out = round_tests(model, obs, settings)
     states = base.mean[:, ::16, :8]
     if not any(t.flagged for t in tests):
-        return Screen(tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=[], seed=0)
+        return Screen(
+            tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=[], seed=0, left_out=left_out
+        )
     screen = slice(0, max(1, settings.screen_steps // obs.y.shape[1]))
     few, few_states = obs.subset(screen), base.mean[screen]
     started = time.perf_counter()
@@ -675,7 +688,7 @@ def decide_round(
     (steps 3-6 of the module docstring)."""
     tests, flagged = screen.tests, screen.flagged
     if not flagged:
-        return SparseRound.quiet(model, tests)
+        return SparseRound.quiet(model, tests, screen.left_out)
     _score(ranking, screen.log_likelihood, int(np.isfinite(obs.y).sum()))
     ranking = sorted(ranking, key=lambda c: (-c.rescued, -c.bic_gain))
     dispersion = _dispersion(ranking)

@@ -46,11 +46,11 @@ from ...core.library import constant_inputs
 from ...core.naming import alike, chain_rivals, explains_enough, removal, unfitted_chain
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
-from ..innovations import ChannelTest, explained_share, innovation_tests
+from ..innovations import ChannelTest, LoneCell, explained_share, innovation_tests
 from ..measure_next import measure_next, to_separate
 from ..observations import Observations
 from ..observed import start_is_searched
-from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains
+from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests, likelihood_gains, round_tests
 from .fit import CONTINUITY_STAGES, Segments, Shooting, ShootingFit, shooting_fit, states_eliminated
 from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms
 
@@ -82,6 +82,9 @@ class ShotScreen:
     base: ShootingFit | None
     forms: list[ScreenedForm]
     candidates: list[ScreenedForm]
+    left_out: LoneCell | None = (
+        None  # a cell that alone disagreed, left out of the tests (:func:`..rounds.round_tests`)
+    )
 
     @property
     def flagged(self) -> list[str]:
@@ -105,9 +108,9 @@ class ShotFit:
 
 def screen_by_shooting(model: CellModel, obs: Observations, settings: DiscoverySettings) -> ShotScreen:
     """Steps 1-2 of the module docstring; ``obs`` with each cell's first state searched under ``model``."""
-    tests, _ = channel_tests(model, obs, settings, backward=False)
+    tests, _, left_out = round_tests(model, obs, settings, backward=False)
     if not any(t.flagged for t in tests):
-        return ShotScreen(tests=tests, base=None, forms=[], candidates=[])
+        return ShotScreen(tests=tests, base=None, forms=[], candidates=[], left_out=left_out)
     few = shooting_cells(obs, settings.shooting_cells)
     return ShotScreen(tests, *screened_forms(model, candidate_hypotheses(model, constant_inputs(obs.u)), few, settings))
 
@@ -208,7 +211,7 @@ def decide_by_shooting(
 def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings) -> SparseRound:
     tests, flagged = screen.tests, screen.flagged
     if not flagged:
-        return SparseRound.quiet(model, tests)
+        return SparseRound.quiet(model, tests, screen.left_out)
     few = shooting_cells(obs, settings.shooting_cells)
     base, cells = screen.base, f"cells 0-{settings.shooting_cells - 1}"
     penalty = float(np.log(int(np.isfinite(few.y).sum())))
