@@ -68,8 +68,10 @@ def test_the_shooting_round_split_into_jobs_gives_the_same_findings(default_conf
     assert terms["1"] == pytest.approx(-20570.0, rel=0.05), terms
 
 
-def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | None = None, cells: int = 2):
-    """A plant round whose screen put ``term:bath_energy`` (one constant) first, at a BIC gain of 490,
+def _decided_by_one_fit(
+    config, removed: float, unfitted: tuple[str, float] | None = None, cells: int = 2, screened_gain: float = 490.0
+):
+    """A plant round whose screen put ``term:bath_energy`` (one constant) first, at a BIC gain of ``screened_gain``,
     fitted to remove ``removed`` of the voltage's 2 noise variances in excess; ``unfitted``: another
     hypothesis screened with a constant at the given BIC gain, not fitted; ``cells``: the record's cells
     to learn from (2: only those the round fits)."""
@@ -118,7 +120,7 @@ def _decided_by_one_fit(config, removed: float, unfitted: tuple[str, float] | No
         whiteness_z=0.0,
         flagged=True,
     )
-    form = screened("term:bath_energy", 490.0)
+    form = screened("term:bath_energy", screened_gain)
     forms = [form] + ([screened(*unfitted)] if unfitted else [])
     screen = shooting_round.ShotScreen(tests=[flagged], base=base, forms=forms, candidates=[form])
     settings = DiscoverySettings(shooting_cells=2, bootstrap=50)
@@ -171,6 +173,19 @@ def test_a_name_stands_only_where_every_hypothesis_the_screen_cannot_exclude_was
     assert [h.key for h in decided.not_fitted] == ([] if named else ["property:ledge_area"])
     if not named:
         assert "the screen could not exclude property:ledge_area, not fitted" in decided.verdict
+
+
+@pytest.mark.parametrize(("gain", "named"), [(490.0, True), (5.0, False)])
+def test_a_name_stands_only_where_the_screen_told_the_hypotheses_apart(default_config, gain, named):
+    """The same fit at its noise, with every other hypothesis screened without a term: named where the
+    screen's best form gained 490 of BIC; where it gained 5, under ``min_gain`` (10), the screen excluded
+    nothing, so the round is not identifiable and says so."""
+    decided = _decided_by_one_fit(default_config, 1.0, ("property:ledge_area", 0.0), screened_gain=gain)
+    assert (decided.named is not None) == named, decided.verdict
+    assert decided.chosen is not None and decided.chosen.hypothesis.key == "term:bath_energy"
+    if not named:
+        assert decided.verdict.startswith("not identifiable")
+        assert "the screen excluded none of the hypotheses not fitted (1): its best form gained 5" in decided.verdict
 
 
 def test_a_correction_fitted_on_the_first_cells_is_not_named_where_the_other_cells_reject_it(default_config):

@@ -20,7 +20,8 @@ composition not logged at every step), the first round runs:
    within it leaves the round undecided; one that leaves a channel beyond its noise unexplained;
    a hypothesis the screen could not exclude and that was not fitted, of other physics than the
    first, or a part of the first's chain that was not fitted, leaves it undecided too (listed: a
-   name stands only where every such one was fitted).
+   name stands only where every such one was fitted), and so does a screen that excluded none
+   (:func:`screen_told`: its best form gained less than ``min_gain`` of BIC).
    The best correction is applied either way where it removes at least ``min_explained`` of the
    excess, as on the filter route; where the best by BIC gain removes less of the flagged channels'
    excess on every cell, by its filter (:func:`filtered_share`), the round is unexplained whatever its
@@ -56,7 +57,7 @@ from .screen import MARGIN, FittedForm, ScreenedForm, ranked_fits, screen_forms
 
 __all__ = [
     "ShotFit", "ShotScreen", "by_excess", "decide_by_shooting", "filtered_share", "fit_by_shooting", "held_elsewhere",
-    "not_excluded", "screen_by_shooting", "screened_forms", "shooting_cells",
+    "not_excluded", "screen_by_shooting", "screen_told", "screened_forms", "shooting_cells",
 ]  # fmt: skip
 
 log = logging.getLogger(__name__)
@@ -292,7 +293,8 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
     if chain:
         log.info("%s: the parts of its chain %s were not fitted", chosen.hypothesis.key, [h.key for h in chain])
     unfitted += [h for h in chain if h not in unfitted]
-    decision = ranking.decision(unfitted=bool(unfitted))
+    told = screen_told(screen, settings)
+    decision = ranking.decision(unfitted=bool(unfitted) or told is not None)
     elsewhere = held_elsewhere(model, chosen, obs, settings) if decision is not Decision.UNEXPLAINED else None
     if elsewhere is not None and elsewhere <= 0:
         verdict = (
@@ -327,6 +329,8 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
                 f", and the screen could not exclude {', '.join(h.key for h in unfitted)}, not fitted "
                 f"(at most {settings.shooting_fits} fits)"
             )
+        if told is not None:
+            verdict += f", and {told}"
         verdict += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
         separated = recommended[0].channel if recommended else None
         return SparseRound(
@@ -346,6 +350,23 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
         model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, decision=decision, verdict=f"{what}; the correction {effect}",
         name=None if name == chosen.hypothesis else name,
     )  # fmt: skip
+
+
+def screen_told(screen: ShotScreen, settings: DiscoverySettings) -> str | None:
+    """Why the screen excluded no hypothesis, or None where it did: its best form gained less than
+    ``settings.min_gain`` of BIC, so the forms it gave no terms (nothing above zero) were not told from the
+    best, only not fitted.  Linearised at an uncorrected fit whose joins absorb much of an effect, it can
+    find almost nothing: on a drawn regimes record it gave one form a term (a transfer from the alumina to
+    the AlF3, 0.1 of BIC) and every other hypothesis none; the transfer, fitted alone, was named wrongly
+    for the missing alumina flow."""
+    best = max((f.bic_gain for f in screen.forms), default=0.0)
+    if best >= settings.min_gain:
+        return None
+    unfitted = sum(1 for f in screen.forms if all(f is not c for c in screen.candidates))
+    return (
+        f"the screen excluded none of the hypotheses not fitted ({unfitted}): its best form gained {best:.3g} of "
+        f"BIC, less than {settings.min_gain:g}"
+    )
 
 
 def filtered_share(
