@@ -9,7 +9,7 @@ import pytest
 
 from costa.discover.cases.shipped import add_noise
 from costa.discover.cases.unshipped import find_case
-from costa.discover.sparse.innovations import ChannelTest, explained_share, innovation_tests, lone_cell
+from costa.discover.sparse.innovations import LOST_EXCESS, ChannelTest, explained_share, innovation_tests, lone_cell
 from costa.discover.sparse.observed import estimate_states
 from costa.observe import observe
 from costa.physics import ablated_model, true_model
@@ -135,25 +135,27 @@ def test_a_corrections_share_of_the_excess_counts_the_flagged_channels_variance_
     assert explained_share(before, tests(4.0, 1.5, 0.5), flagged) == pytest.approx(-1 / 2.75)
 
 
-@pytest.mark.parametrize(("off", "lone"), [(1, 5), (3, None)])
-def test_a_flag_carried_by_one_cell_alone_names_that_cell_and_where(off, lone):
+@pytest.mark.parametrize(("scale", "off", "lone"), [(2.5, 1, 5), (2.5, 3, None), (1.9, 1, None)])
+def test_a_flag_carried_by_one_lost_cell_names_that_cell_and_where(scale, off, lone):
     """White unit innovations on 6 cells (2 channels, 3,600 steps of 10 s); ``off`` cells (the last ones)
-    have their first channel's variance 4 over hours 2-5.  One such cell alone carries the flag: with it
-    left out none remains, and it is named with the hours of its excess (from a record whose first
-    600 steps were left out, so hours 3.7-6.7); where three carry it, no one cell does."""
+    have their first channel scaled by ``scale`` over hours 2-5.  One such cell at 2.5 (2.6 times the
+    noise variance over the cell) alone carries the flag: with it left out none remains, and it is named
+    with the hours of its excess (from a record whose first 600 steps were left out: hours 3.7-6.7).
+    Where three carry it, no one cell does; one at 1.9 (1.8 times the noise variance) carries it too, but
+    is not lost (:data:`LOST_EXCESS`)."""
     rng = np.random.default_rng(0)
     e = rng.standard_normal((6, 3600, 2))
-    e[6 - off :, 720:1800, 0] *= 2.0
+    e[6 - off :, 720:1800, 0] *= scale
     tests = innovation_tests(e, ["U_cell", "x6"])
     assert [t.channel for t in tests if t.flagged] == ["U_cell"]
     found = lone_cell(e, ["U_cell", "x6"], tests, step_s=10.0, first_step=600, z_threshold=6.0, min_excess=0.1)
     if lone is None:
         assert found is None
         return
-    assert found.cell == lone and found.chi2["U_cell"] == pytest.approx(2.0, abs=0.15)
+    assert found.cell == lone and found.chi2["U_cell"] == pytest.approx(2.6, abs=0.15)
+    assert found.chi2["U_cell"] > 1 + LOST_EXCESS
     assert found.hours[0] == pytest.approx(3.67, abs=0.1) and found.hours[1] == pytest.approx(6.67, abs=0.1)
-    rest = innovation_tests(np.delete(e, lone, axis=0), ["U_cell", "x6"])
-    assert not any(t.flagged for t in rest)
+    assert not any(t.flagged for t in innovation_tests(np.delete(e, lone, axis=0), ["U_cell", "x6"]))
     assert lone_cell(e[:1], ["U_cell", "x6"], tests, 10.0, 0, 6.0, 0.1) is None  # one cell: nothing to leave out
 
 
