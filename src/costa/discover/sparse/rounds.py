@@ -123,8 +123,9 @@ class SparseRound(Round):
         if left_out is not None:
             verdict += (
                 f" once {left_out.describe([t.channel for t in tests])} is left out: it alone disagrees, so the "
-                "estimator did not follow the model there (a first state placed far off, a cell near the alumina "
-                "pole), not a sign of physics missing from every cell; look at that cell's record"
+                "estimator lost it (a first state placed far off, a cell near the alumina pole) or something acts "
+                "on that cell alone; physics missing from the model would show in the other cells too; look at "
+                "that cell's record"
             )
         return cls(
             model=model, tests=tests, ranking=[], chosen=None, equivalent=[], decision=Decision.QUIET,
