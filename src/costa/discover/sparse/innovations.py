@@ -107,8 +107,8 @@ LOST_EXCESS = 1.0
 class LoneCell:
     """A cell whose innovations alone carry every flag of a model's channel tests: with it left out, no
     channel disagrees beyond noise.  An effect missing from the model is missing in every cell; one cell
-    alone says that the estimator did not follow it there (a first state placed far off, a cell near the
-    alumina pole).  ``chi2``: the mean square of each channel flagged with it, on this cell; ``hours``: the
+    alone says that the estimator lost it (a first state placed far off, a cell near the alumina pole) or
+    that something acts on it alone.  ``chi2``: the mean square of each channel flagged with it, on this cell; ``hours``: the
     stretch (from the record's start) where it disagrees most: its largest run of squared innovations beyond
     1 + :data:`LOST_EXCESS` noise variances, on the channel with the most excess on it."""
 
