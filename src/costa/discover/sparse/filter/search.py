@@ -589,9 +589,8 @@ class Screen:
     # of the first trajectories they were screened
     others: list[HypothesisScore] = field(default_factory=list)
     screened: int = 0
-    left_out: LoneCell | None = (
-        None  # a cell that alone disagreed, left out of the tests (:func:`..rounds.round_tests`)
-    )
+    # a cell that alone disagreed, left out of the tests (:func:`..rounds.round_tests`)
+    left_out: LoneCell | None = None
 
     @property
     def flagged(self) -> list[str]:

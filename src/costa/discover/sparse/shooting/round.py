@@ -83,9 +83,8 @@ class ShotScreen:
     base: ShootingFit | None
     forms: list[ScreenedForm]
     candidates: list[ScreenedForm]
-    left_out: LoneCell | None = (
-        None  # a cell that alone disagreed, left out of the tests (:func:`..rounds.round_tests`)
-    )
+    # a cell that alone disagreed, left out of the tests (:func:`..rounds.round_tests`)
+    left_out: LoneCell | None = None
 
     @property
     def flagged(self) -> list[str]:
