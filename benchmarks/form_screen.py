@@ -87,7 +87,8 @@ def main() -> None:
             print(f"{name}: the true model's own fit: cost {fit.cost:.0f}, {chi2}, "
                   f"{fit.iterations} iterations, {time.perf_counter() - started:.1f} s")  # fmt: skip
             continue
-        tests, _ = channel_tests(model, obs.with_start(model), settings, backward=False)
+        obs = obs.with_start(model)  # the screen's tests and the decision's filters start there
+        tests, _ = channel_tests(model, obs, settings, backward=False)
         hypotheses = [
             h for h in candidate_hypotheses(model, constant_inputs(obs.u)) if h.key in (args.hypotheses or [h.key])
         ]
