@@ -96,10 +96,10 @@ def innovation_tests(
     return tests
 
 
-#: a cell that alone carries a model's flags is one the estimator did not follow where its innovations in a
-#: flagged channel exceed the noise variance by this much (twice it in all): on a drawn plant record the lost
-#: cells' were 2.4-41 times it, and a cell at 1.38 times it, just ahead of cells near 1.1, was only the
-#: largest share of a small excess that every cell showed
+#: a cell that alone carries a model's flags is taken for a lost one where its innovations in a flagged
+#: channel exceed the noise variance by this much (twice it in all): on the dev plant records the lost cells'
+#: were 2.4-41 times it, and a cell at 1.38 times it, just ahead of cells near 1.1, was only the largest
+#: share of a small excess that every cell showed
 LOST_EXCESS = 1.0
 
 
@@ -108,9 +108,10 @@ class LoneCell:
     """A cell whose innovations alone carry every flag of a model's channel tests: with it left out, no
     channel disagrees beyond noise.  An effect missing from the model is missing in every cell; one cell
     alone says that the estimator lost it (a first state placed far off, a cell near the alumina pole) or
-    that something acts on it alone.  ``chi2``: the mean square of each channel flagged with it, on this cell; ``hours``: the
-    stretch (from the record's start) where it disagrees most: its largest run of squared innovations beyond
-    1 + :data:`LOST_EXCESS` noise variances, on the channel with the most excess on it."""
+    that something acts on it alone.  ``chi2``: the mean square of each channel flagged with it, on this
+    cell; ``hours``: the stretch (from the record's start) where it disagrees most: its largest run of
+    squared innovations beyond 1 + :data:`LOST_EXCESS` noise variances, on the channel with the most excess
+    on it."""
 
     cell: int
     chi2: dict[str, float]
@@ -128,8 +129,9 @@ def lone_cell(
 ) -> LoneCell | None:  # fmt: skip
     """The cell (of the innovations (n, K, C), ``tests`` their channel tests) that alone carries every
     flagged channel, its innovations beyond :data:`LOST_EXCESS` in one (:class:`LoneCell`), or None where no
-    one cell does (or none is flagged, or there is one cell).  The cells are tried by their flagged channels' summed excess, largest first; ``step_s`` [s]
-    and ``first_step`` (the record's step of ``innovation[:, 0]``) place the stretch in hours."""
+    one cell does (or none is flagged, or there is one cell).  The cells are tried by their flagged
+    channels' summed excess, largest first; ``step_s`` [s] and ``first_step`` (the record's step of
+    ``innovation[:, 0]``) place the stretch in hours."""
     flagged = [channels.index(t.channel) for t in tests if t.flagged]
     n = innovation.shape[0]
     if not flagged or n < 2:
