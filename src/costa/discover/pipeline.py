@@ -145,9 +145,12 @@ def discovery_route(config: Mapping, name: str, tables: Sequence[pd.DataFrame]) 
 
 
 def search_settings(config: Mapping, name: str, route: Route) -> DiscoverySettings:
-    """How the discovery of data set ``name`` decides on its ``route``, with its own random stream."""
+    """How the discovery of data set ``name`` decides on its ``route``, with its own random stream, and
+    its sensor set's or your ``min_excess`` where stated."""
     seed = seeds.stream(config["seed"], 0, f"discovery/{name}/search")
-    return replace(settings_from_config(config), seed=seed, shooting_cells=route.shooting_cells)
+    settings = replace(settings_from_config(config), seed=seed, shooting_cells=route.shooting_cells)
+    material = _record_settings(config, name).get("min_excess")
+    return settings if material is None else replace(settings, min_excess=material)
 
 
 def gap_restart_s(config: Mapping, name: str) -> float | None:
