@@ -107,7 +107,7 @@ def screen_first_round(
     (:mod:`.split`)."""
     obs = checked_observations(train, declared_noise, source, settings).with_start(start)
     if settings.shooting_cells:
-        write_shot_screen(screen_by_shooting(start, obs, settings), path)
+        write_shot_screen(screen_by_shooting(start, obs, settings), obs.start, path)
         return
     screen = screen_round(start, obs, settings, np.random.default_rng(settings.seed), named=())
     write_screen(screen, obs.start, path)
@@ -121,7 +121,7 @@ def fit_first_round(
     obs = checked_observations(train, declared_noise, source, settings)
     share = slice(job, None, jobs)
     if settings.shooting_cells:
-        screen = read_shot_screen(screen_path, start)
+        screen, _ = read_shot_screen(screen_path, start)
         write_shot_fits(
             fit_by_shooting(start, screen, obs, settings, share), range(len(screen.candidates))[share], path
         )
@@ -136,13 +136,14 @@ def _shooting_round(
     start: CellModel, obs: Observations, settings: DiscoverySettings, first_round: tuple | None
 ) -> SparseRound:
     """The round :mod:`.shooting.round` decides, from the jobs' records where given; every cell's first
-    state searched under ``start``, as the screen searched it."""
-    obs = obs.with_start(start)
+    state searched under ``start`` (by the screen's job, where given)."""
     if first_round is None:
+        obs = obs.with_start(start)
         screen = screen_by_shooting(start, obs, settings)
         fits = fit_by_shooting(start, screen, obs, settings, slice(None))
     else:
-        screen, fits = read_shot_screen(first_round[0], start), read_shot_fits(first_round[1])
+        screen, searched = read_shot_screen(first_round[0], start)
+        obs, fits = replace(obs, start=searched), read_shot_fits(first_round[1])
     return decide_by_shooting(start, screen, fits, obs, settings)
 
 

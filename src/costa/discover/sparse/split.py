@@ -118,8 +118,9 @@ def _form(record: dict[str, Any], hypotheses: dict) -> ScreenedForm:
     return ScreenedForm(**(record | {"hypothesis": h, "features": tuple(library[n] for n in record["features"])}))
 
 
-def write_shot_screen(screen: ShotScreen, path: str | Path) -> None:
-    """The shooting route's screen (:func:`.shooting.round.screen_by_shooting`) as numbers."""
+def write_shot_screen(screen: ShotScreen, start, path: str | Path) -> None:
+    """The shooting route's screen (:func:`.shooting.round.screen_by_shooting`) as numbers, and the first
+    states the starting model placed the cells at, ``start`` (n, 8)."""
     position = {id(f): i for i, f in enumerate(screen.forms)}
     record = {
         "tests": [dataclasses.asdict(t) for t in screen.tests],
@@ -127,21 +128,23 @@ def write_shot_screen(screen: ShotScreen, path: str | Path) -> None:
         "forms": [_form_record(f) for f in screen.forms],
         "candidates": [position[id(f)] for f in screen.candidates],
         "left_out": _lone_record(screen.left_out),
+        "start": start,
     }
     Path(path).write_bytes(pickle.dumps(record))
 
 
-def read_shot_screen(path: str | Path, model: CellModel) -> ShotScreen:
-    """The shooting route's screen, its hypotheses those of ``model``."""
+def read_shot_screen(path: str | Path, model: CellModel) -> tuple[ShotScreen, Any]:
+    """The shooting route's screen, its hypotheses those of ``model``, and the searched start."""
     record = pickle.loads(Path(path).read_bytes())
     hypotheses = {h.key: h for h in candidate_hypotheses(model)}
     forms = [_form(f, hypotheses) for f in record["forms"]]
     base = None if record["base"] is None else ShootingFit(**record["base"])
     tests = [ChannelTest(**t) for t in record["tests"]]
-    return ShotScreen(
+    screen = ShotScreen(
         tests=tests, base=base, forms=forms, candidates=[forms[i] for i in record["candidates"]],
-        left_out=_lone(record.get("left_out")),
+        left_out=_lone(record["left_out"]),
     )  # fmt: skip
+    return screen, record["start"]
 
 
 def _lone_record(lone: LoneCell | None) -> dict | None:
