@@ -45,6 +45,8 @@ PROBE = 1e-3
 #: how much more BIC gain the first fit needs than every rival to be told apart from them: 10, the
 #: "very strong" evidence of Kass and Raftery (1995) on twice the log Bayes factor
 MARGIN = 10.0
+#: the line current's term of the screen, linear in its deviation from 140 kA
+LINE_CURRENT = "(u2 - 140000)"
 #: a term whose pivot, given the terms already chosen, is below this share of its own
 #: information adds nothing new (it is, to rounding, a combination of those)
 COLLINEAR = 1e-8
@@ -71,11 +73,14 @@ class ScreenedForm:
 
 
 def screen_terms(hypothesis: Hypothesis) -> list[Feature]:
-    """The terms a hypothesis is screened with: a constant and the bath's composition and
-    temperature, linear (:data:`...core.library.FIRST_ORDER`); for a part also the same relative to
-    its own value; and the feed and tapping flows where the hypothesis may read them."""
+    """The terms a hypothesis is screened with: a constant, the bath's composition and temperature
+    (:data:`...core.library.FIRST_ORDER`) and the line current, linear; for a part also its own value,
+    alone and times the composition and temperature; and the feed and tapping flows where the
+    hypothesis may read them.  The current varies by a quarter on a pot line's record: without its
+    term a line current read with an offset (a gain of offset / u2) screened 5th, behind the voltage
+    chain's parts, and was not fitted (dev plant seed drawn9; with it, named)."""
     library = {f.name: f for f in hypothesis.features()}
-    names = list(FIRST_ORDER) + list(FLOW_INPUTS)
+    names = list(FIRST_ORDER) + [LINE_CURRENT] + list(FLOW_INPUTS)
     if hypothesis.kind == "part":
         names += ["own"] + [f"own*{name}" for name in FIRST_ORDER[1:]]
     return [library[name] for name in names if name in library]
