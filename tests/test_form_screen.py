@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from costa.discover.core.hypotheses import candidate_hypotheses
+from costa.discover.core.library import LINE_CURRENT
 from costa.discover.core.naming import balance_moved, causes_through
 from costa.discover.core.outcome import Decision
 from costa.discover.sparse.shooting.fit import ShootingFit, states_eliminated
-from costa.discover.sparse.shooting.screen import LINE_CURRENT, FittedForm, _forward, ranked_fits, screen_terms
+from costa.discover.sparse.shooting.screen import FittedForm, _forward, ranked_fits, screen_terms
 from costa.physics import operating_points
 
 

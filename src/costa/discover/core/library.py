@@ -20,7 +20,7 @@ import numpy as np
 from ...physics import CellVariables
 from ...variables import INPUTS
 
-__all__ = ["FIRST_ORDER", "FLOW_INPUTS", "Feature", "constant_inputs", "feature_library"]
+__all__ = ["FIRST_ORDER", "FLOW_INPUTS", "LINE_CURRENT", "Feature", "constant_inputs", "feature_library"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +75,8 @@ def _centred(name: str) -> tuple[str, Callable]:
 #: rate, which the measured channels weigh beside the terms a regression selected (a selected proxy
 #: such as the superheat, itself a function of them, is then kept only where the channels need it)
 FIRST_ORDER = ("1", *(_centred(name)[0] for name in ("c2", "c3", "x6")))
+#: the line current, linear in its deviation from its nominal value: it varies by a quarter on a pot line
+LINE_CURRENT = _centred("u2")[0]
 
 
 #: variables whose squares and pairwise products form the richer library of later rounds

@@ -22,7 +22,7 @@ import numpy as np
 
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
-from ...core.library import FIRST_ORDER, FLOW_INPUTS, Feature
+from ...core.library import FIRST_ORDER, FLOW_INPUTS, LINE_CURRENT, Feature
 from ...core.naming import balance_moved, conclude, decide, naming_order, small_form_error
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
@@ -45,8 +45,6 @@ PROBE = 1e-3
 #: how much more BIC gain the first fit needs than every rival to be told apart from them: 10, the
 #: "very strong" evidence of Kass and Raftery (1995) on twice the log Bayes factor
 MARGIN = 10.0
-#: the line current's term of the screen, linear in its deviation from 140 kA
-LINE_CURRENT = "(u2 - 140000)"
 #: a term whose pivot, given the terms already chosen, is below this share of its own
 #: information adds nothing new (it is, to rounding, a combination of those)
 COLLINEAR = 1e-8
