@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from costa.discover.core.hypotheses import candidate_hypotheses
-from costa.discover.core.library import LINE_CURRENT
+from costa.discover.core.library import LEDGE_AND_WALL, LINE_CURRENT
 from costa.discover.core.naming import balance_moved, causes_through
 from costa.discover.core.outcome import Decision
 from costa.discover.sparse.shooting.fit import ShootingFit, states_eliminated
@@ -74,6 +75,29 @@ def test_the_screen_follows_a_line_current_read_with_an_offset(model):
     assert left(terms) < 0.01
     assert left([f for f in terms if f.name != LINE_CURRENT]) > 0.05
     assert all(LINE_CURRENT in [f.name for f in screen_terms(h)] for h in hypotheses)
+
+
+@pytest.mark.parametrize("key", ["term:ledge_energy", "part:bubble_coverage"])
+def test_the_screen_follows_a_rate_that_varies_with_the_ledge_and_wall_temperatures(model, key):
+    """A flow that varies with the ledge's or the wall's temperature (a part: in proportion to itself) is
+    fitted by the screen's terms to rounding; the bath's composition and temperature and the current,
+    which vary independently of them over a running cell's range, leave over 80 % of it (the cells of a
+    pot line differ in these temperatures)."""
+    h = next(h for h in candidate_hypotheses(model) if h.key == key)
+    x, u = operating_points(np.random.default_rng(0), 2000)
+    own = model.quantities(x, u)[h.target] if h.kind == "part" else 1.0
+    terms = screen_terms(h)
+    bath_alone = [f for f in terms if not any(state in f.name for state in LEDGE_AND_WALL)]
+
+    def left(features, rate) -> float:
+        columns = h.feature_values(model, features, x, u)
+        fitted = columns @ np.linalg.lstsq(columns, rate, rcond=None)[0]
+        return float(np.sqrt(np.mean((rate - fitted) ** 2) / np.mean(rate**2)))
+
+    for state in LEDGE_AND_WALL:
+        rate = own * h.feature_values(model, [next(f for f in terms if f.name == state)], x, u)[:, 0]
+        assert left(terms, rate) < 1e-6, state
+        assert left(bath_alone, rate) > 0.8, state
 
 
 #: a term's price in the tests below: log(samples)

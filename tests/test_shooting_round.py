@@ -201,6 +201,19 @@ def test_a_correction_fitted_on_the_first_cells_is_not_named_where_the_other_cel
     assert "term:bath_energy, does not hold on the other cells" in decided.verdict, decided.verdict
 
 
+def test_the_other_cells_judge_a_correction_where_both_filters_hold_them():
+    """The other cells' BIC gain counts the cells both filters hold (2 (after - before) less a term's
+    log(samples)); a correction that loses one cell's filter and brings back two the uncorrected filter
+    lost still holds there (on a drawn plant record the right correction lost one of ten and brought back
+    three), and one that loses more cells than it brings back does not, whatever it gains on the rest."""
+    lost = -np.inf
+    before = np.array([-100.0, -100.0, lost, lost, -100.0])
+    gain = shooting_round.gain_where_held(before, np.array([-40.0, -90.0, -10.0, -10.0, lost]), 2, 100)
+    np.testing.assert_allclose(gain, 2 * (60.0 + 10.0) - 2 * np.log(100))
+    assert shooting_round.gain_where_held(before, np.array([0.0, lost, lost, -10.0, lost]), 1, 100) == -np.inf
+    assert shooting_round.gain_where_held(before, np.array([-100.0, -100.0, lost, lost, -101.0]), 1, 100) < 0
+
+
 def test_a_round_is_not_decided_on_cells_whose_first_states_were_not_searched(default_config):
     """The screen tests the uncorrected model from each cell's searched first state, and the corrected
     models' filters search theirs again (``filtered_share``); a record handed over without its searched

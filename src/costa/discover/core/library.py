@@ -20,7 +20,15 @@ import numpy as np
 from ...physics import CellVariables
 from ...variables import INPUTS
 
-__all__ = ["FIRST_ORDER", "FLOW_INPUTS", "LINE_CURRENT", "Feature", "constant_inputs", "feature_library"]
+__all__ = [
+    "FIRST_ORDER",
+    "FLOW_INPUTS",
+    "LINE_CURRENT",
+    "LEDGE_AND_WALL",
+    "Feature",
+    "constant_inputs",
+    "feature_library",
+]
 
 
 @dataclass(frozen=True)
@@ -77,6 +85,9 @@ def _centred(name: str) -> tuple[str, Callable]:
 FIRST_ORDER = ("1", *(_centred(name)[0] for name in ("c2", "c3", "x6")))
 #: the line current, linear in its deviation from its nominal value: it varies by a quarter on a pot line
 LINE_CURRENT = _centred("u2")[0]
+#: the ledge's and the wall's temperatures, linear: a rate may depend on them as much as on the bath's
+#: (the cells of a pot line differ in them)
+LEDGE_AND_WALL = tuple(_centred(name)[0] for name in ("x7", "x8"))
 
 
 #: variables whose squares and pairwise products form the richer library of later rounds

@@ -22,7 +22,7 @@ import numpy as np
 
 from ....physics import CellModel
 from ...core.hypotheses import Hypothesis, candidate_hypotheses
-from ...core.library import FIRST_ORDER, FLOW_INPUTS, LINE_CURRENT, Feature
+from ...core.library import FIRST_ORDER, FLOW_INPUTS, LEDGE_AND_WALL, LINE_CURRENT, Feature
 from ...core.naming import balance_moved, conclude, decide, naming_order, small_form_error
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
@@ -72,15 +72,19 @@ class ScreenedForm:
 
 def screen_terms(hypothesis: Hypothesis) -> list[Feature]:
     """The terms a hypothesis is screened with: a constant, the bath's composition and temperature
-    (:data:`...core.library.FIRST_ORDER`) and the line current, linear; for a part also its own value,
-    alone and times the composition and temperature; and the feed and tapping flows where the
-    hypothesis may read them.  The current varies by a quarter on a pot line's record: without its
-    term a line current read with an offset (a gain of offset / u2) screened 5th, behind the voltage
-    chain's parts, and was not fitted (dev plant seed drawn9; with it, named)."""
+    (:data:`...core.library.FIRST_ORDER`), the line current and the ledge's and wall's temperatures
+    (:data:`...core.library.LEDGE_AND_WALL`), linear; for a part also its own value, alone and times each
+    of those but the current; and the feed and tapping flows where the hypothesis may read them.  The
+    current varies by a quarter on a pot line's record: without its term a line current read with an offset
+    (a gain of offset / u2) screened 5th, behind the voltage chain's parts, and was not fitted (dev plant
+    seed drawn9; with it, named).  The ledge's and wall's temperatures differ between a line's cells: a
+    coverage of the bubbles in x7, fitted without them on cells 0-1, held on no other cell (dev drawn21;
+    with them, named).  The masses x1 and m are left out: they drift slowly over a record, a ramp in time
+    that lets the voltage's parts follow any drift on two cells (dev drawn2 lost its name with them)."""
     library = {f.name: f for f in hypothesis.features()}
-    names = list(FIRST_ORDER) + [LINE_CURRENT] + list(FLOW_INPUTS)
+    names = [*FIRST_ORDER, LINE_CURRENT, *LEDGE_AND_WALL, *FLOW_INPUTS]
     if hypothesis.kind == "part":
-        names += ["own"] + [f"own*{name}" for name in FIRST_ORDER[1:]]
+        names += ["own"] + [f"own*{name}" for name in (*FIRST_ORDER[1:], *LEDGE_AND_WALL)]
     return [library[name] for name in names if name in library]
 
 
