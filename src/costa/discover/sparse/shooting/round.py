@@ -25,7 +25,9 @@ composition not logged at every step), the first round runs:
    The best correction is applied either way where it removes at least ``min_explained`` of the
    excess, as on the filter route; where the best by BIC gain removes less of the flagged channels'
    excess on every cell, by its filter (:func:`filtered_share`), the round is unexplained whatever its
-   fit's channels (:func:`...core.naming.explains_enough`, every route's rule).
+   fit's channels (:func:`...core.naming.explains_enough`, every route's rule); so too where the chosen
+   correction gains nothing on the other cells (:func:`held_elsewhere`, on the cells both filters hold),
+   and it is not applied: an effect missing from the model is missing in every cell.
 
 Every closed form has at most three terms, so no rival holds a larger budget: a name is not bought
 by terms.  A fit at noise on every channel leaves nothing for a further round on these cells, so the
