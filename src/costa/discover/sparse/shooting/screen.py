@@ -77,10 +77,11 @@ def screen_terms(hypothesis: Hypothesis) -> list[Feature]:
     of those but the current; and the feed and tapping flows where the hypothesis may read them.  The
     current varies by a quarter on a pot line's record: without its term a line current read with an offset
     (a gain of offset / u2) screened 5th, behind the voltage chain's parts, and was not fitted (dev plant
-    seed drawn9; with it, named).  The ledge's and wall's temperatures differ between a line's cells: without
-    them a coverage of the bubbles in x7 went unexplained (dev drawn21: the best form added 23 % to the
-    flagged excess on every cell); with them it is named.  The masses x1 and m are left out: they drift slowly over a record, a ramp in time
-    that lets the voltage's parts follow any drift on two cells (dev drawn2 lost its name with them)."""
+    seed drawn9; with it, named).  The ledge's and wall's temperatures differ between a line's cells:
+    without them a coverage of the bubbles in x7 went unexplained (dev drawn21: the best form added 23 %
+    to the flagged excess on every cell); with them it is named.  The masses x1 and m are left out: they
+    drift slowly over a record, a ramp in time that lets the voltage's parts follow any drift on two
+    cells (dev drawn2 lost its name with them)."""
     library = {f.name: f for f in hypothesis.features()}
     names = [*FIRST_ORDER, LINE_CURRENT, *LEDGE_AND_WALL, *FLOW_INPUTS]
     if hypothesis.kind == "part":
