@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -229,3 +230,15 @@ def test_a_round_is_not_decided_on_cells_whose_first_states_were_not_searched(de
     with pytest.raises(ValueError, match="first states searched"):
         shooting_round.decide_by_shooting(model, screen, [], obs, DiscoverySettings(shooting_cells=2))
     assert shooting_round.decide_by_shooting(model, screen, [], obs.with_start(model), DiscoverySettings()).verdict
+
+
+def test_every_form_the_screen_cannot_exclude_is_fitted_up_to_the_budget():
+    """Beside the chosen forms, every form screened within ``shooting_window`` (0.2) of the best BIC gain is
+    fitted, best first, to ``shooting_fits`` in all; one below the window or without a term is not."""
+    forms = [SimpleNamespace(features=("1",), bic_gain=gain) for gain in (100.0, 95.0, 90.0, 85.0, 80.0, 79.0)]
+    forms.append(SimpleNamespace(features=(), bic_gain=99.0))
+    chosen = [forms[5]]
+    within = shooting_round.with_not_excluded(chosen, forms, DiscoverySettings(shooting_window=0.2, shooting_fits=24))
+    assert within == [forms[5], *forms[:5]]
+    cut = shooting_round.with_not_excluded(chosen, forms, DiscoverySettings(shooting_window=0.2, shooting_fits=3))
+    assert cut == [forms[5], forms[0], forms[1]]
