@@ -81,7 +81,8 @@ def screen_terms(hypothesis: Hypothesis) -> list[Feature]:
     without them a coverage of the bubbles in x7 went unexplained (dev drawn21: the best form added 23 %
     to the flagged excess on every cell); with them it is named.  The masses x1 and m are left out: they
     drift slowly over a record, a ramp in time that lets the voltage's parts follow any drift on two
-    cells (dev drawn2 lost its name with them)."""
+    cells (dev drawn2 lost its name with them at 8 fits; at 24 it kept it, but no dev verdict moved
+    and the screen took a fifth longer)."""
     library = {f.name: f for f in hypothesis.features()}
     names = [*FIRST_ORDER, LINE_CURRENT, *LEDGE_AND_WALL, *FLOW_INPUTS]
     if hypothesis.kind == "part":
