@@ -520,6 +520,51 @@ def test_the_equivalence_window_widens_by_the_misfit_the_best_correction_leaves(
     assert _dispersion([]) == 1.0
 
 
+def test_a_hypothesis_the_screen_cannot_exclude_is_fitted_before_the_round_is_decided(monkeypatch):
+    """A round undecided only because the screen could not exclude a hypothesis that was not fitted fits
+    it and is decided again (here it loses, and the name stands); with no fit left in ``partial_fits`` it
+    stays listed and nothing more is fitted; where the round is undecided for another reason too, it stays
+    undecided; a listed hypothesis without a screen score (a chain's part) is not fitted here."""
+    from costa.discover.core.outcome import Decision
+    from costa.discover.sparse.filter import search
+    from costa.discover.sparse.rounds import HypothesisScore
+
+    h = next(h for h in candidate_hypotheses(true_model()) if h.key == "term:ledge_energy")
+    rival = HypothesisScore(hypothesis=h, scale=1.0, walk=0.0, log_likelihood_gain=1000.0)
+    screen = SimpleNamespace(others=[rival], seed=0, tests=[])
+    chosen = SimpleNamespace(hypothesis=SimpleNamespace(key="term:bath_energy"))
+    other_reason = []
+
+    def decide(model, obs, settings, screen, ranking, named):
+        listed = [] if any(c.hypothesis.key == h.key for c in ranking) else [h]
+        undecided = bool(listed or other_reason)
+        return SimpleNamespace(decision=Decision.NOT_IDENTIFIABLE if undecided else Decision.NAMED, not_fitted=listed)
+
+    made = []
+
+    def fit(score, *args, **kwargs):
+        made.append(score)
+        return SimpleNamespace(hypothesis=score.hypothesis)
+
+    monkeypatch.setattr(search, "decide_round", decide)
+    monkeypatch.setattr(search, "_fit", fit)
+
+    def run(fits_allowed):
+        made.clear()
+        settings = DiscoverySettings(partial_fits=fits_allowed)
+        found, _ = search.with_unexcluded(
+            None, None, settings=settings, screen=screen, fits=[chosen], named=(), rich=False
+        )
+        return found.decision, made[:]
+
+    assert run(2) == (Decision.NAMED, [rival])
+    assert run(1) == (Decision.NOT_IDENTIFIABLE, [])
+    other_reason.append("a rival screened ahead")
+    assert run(2) == (Decision.NOT_IDENTIFIABLE, [rival])
+    screen.others = []
+    assert run(2) == (Decision.NOT_IDENTIFIABLE, [])
+
+
 def test_terms_cannot_buy_a_name(monkeypatch):
     """A correction's lead counts only where its closed form, cut to a rival's fewer terms, still
     beats that rival by the margin: an 11-term form ahead by 300 BIC whose 3-term cut gains no more

@@ -39,6 +39,9 @@ class DiscoverySettings:
         40_000  # partial measurements: every hypothesis is scored first on trajectories of this many steps in all
     )
     partial_candidates: int = 4  # ... the best so many get a closed form, fitted and scored on all trajectories
+    # ... and after them every hypothesis the screen cannot exclude (its free delta gained about as much as the
+    # chosen closed form), to partial_fits fits in all: a name stands only where every one was fitted and lost
+    partial_fits: int = 12
     # ... random-walk steps of a hypothesis' delta, in noise stds per window (0: a constant delta)
     walks: tuple[float, ...] = (0.0, 0.3, 3.0)
     # a pot line's record (the first state searched): the first round decided by multiple shooting on the

@@ -26,7 +26,9 @@ One round on the current model:
    unmeasured channel would separate them; the best one still corrects the model for
    forecasting, and the rounds stop there; so too where a hypothesis that was not fitted
    could still explain them (its free delta gained, on the screened trajectories, within the margin
-   of what the chosen closed form gains there: :func:`could_explain_as_well`), listed, and where a
+   of what the chosen closed form gains there: :func:`could_explain_as_well`): each such is fitted
+   and the round decided again, to ``partial_fits`` fits (:func:`with_unexcluded`), and those still
+   left are listed; and where a
    candidate of other physics gained more than the chosen one in the screen, fitted or not: the
    chosen one then leads only by the term library's closed forms (:func:`_screened_ahead`);
 5. terms cannot buy a name: the chosen correction's closed form, cut to each rival's (fewer)
@@ -106,6 +108,7 @@ __all__ = [
     "fit_share",
     "other_physics",
     "screen_round",
+    "with_unexcluded",
 ]
 
 log = logging.getLogger(__name__)
@@ -639,10 +642,7 @@ def fit_share(
 ) -> list[SparseCandidate]:  # fmt: skip
     """The screen's candidates in ``share`` (e.g. ``slice(j, None, jobs)``: job j of ``jobs``), each fitted;
     ``first``: whether this is the first round."""
-    return [
-        _fit(s, model, obs=obs, settings=settings, seed=screen.seed, rich=rich, tests=screen.tests, first=first)
-        for s in screen.candidates[share]
-    ]
+    return [_fit_screened(s, model, obs, settings, screen, rich=rich, first=first) for s in screen.candidates[share]]
 
 
 def discover_round(
@@ -664,15 +664,43 @@ def decided_round(
     candidates fitted again with the richer library (every square and pairwise product of the main
     variables: a law that reads two variables the basic library does not pair) decide it, where they
     end it otherwise: named or not identifiable by the same rules, rivals fitted alike."""
-    found = decide_round(model, obs, settings=settings, screen=screen, ranking=fits, named=named)
+    found, fits = with_unexcluded(model, obs, settings=settings, screen=screen, fits=fits, named=named, rich=False)
     if found.decision is not Decision.UNEXPLAINED or not fits:
         return found
-    refitted = fit_share(screen, model, obs=obs, settings=settings, rich=True, share=slice(None), first=not named)
-    richer = decide_round(model, obs, settings=settings, screen=screen, ranking=refitted, named=named)
+    refitted = [_fit_screened(c.score, model, obs, settings, screen, rich=True, first=not named) for c in fits]
+    richer, _ = with_unexcluded(model, obs, settings=settings, screen=screen, fits=refitted, named=named, rich=True)
     log.info("the richer term library: %s", richer.verdict)
     if richer.decision is Decision.UNEXPLAINED:
         return replace(found, verdict=f"{found.verdict}; so too with the richer term library")
     return replace(richer, rich=True)
+
+
+def with_unexcluded(
+    model: CellModel, obs: Observations, *, settings: DiscoverySettings, screen: Screen,
+    fits: list[SparseCandidate], named: Sequence[str], rich: bool,
+) -> tuple[SparseRound, list[SparseCandidate]]:  # fmt: skip
+    """The round :func:`decide_round` decides from ``fits`` and, while it is undecided because the screen
+    could not exclude a hypothesis that was not fitted (:func:`could_explain_as_well`), from those fitted
+    too, to ``partial_fits`` fits in all: a name stands only where every one was fitted and lost by the
+    margin (the rule of every route; a fit on a partial record takes seconds).  Also the fits it made."""
+    others = {s.hypothesis.key: s for s in screen.others}
+    while True:
+        found = decide_round(model, obs, settings=settings, screen=screen, ranking=fits, named=named)
+        fitted = {c.hypothesis.key for c in fits}
+        left = [others[h.key] for h in found.not_fitted if h.key in others and h.key not in fitted]
+        room = settings.partial_fits - len(fits)
+        if found.decision is not Decision.NOT_IDENTIFIABLE or not left or room <= 0:
+            return found, fits
+        log.info("the screen could not exclude %s: fitted too", [s.hypothesis.key for s in left[:room]])
+        fits = fits + [_fit_screened(s, model, obs, settings, screen, rich=rich, first=not named) for s in left[:room]]
+
+
+def _fit_screened(
+    score: HypothesisScore, model: CellModel, obs: Observations, settings: DiscoverySettings, screen: Screen, *,
+    rich: bool, first: bool,
+) -> SparseCandidate:  # fmt: skip
+    """One screened hypothesis fitted (:func:`_fit`) with the round's seed and channel tests."""
+    return _fit(score, model, obs=obs, settings=settings, seed=screen.seed, rich=rich, tests=screen.tests, first=first)
 
 
 def decide_round(
