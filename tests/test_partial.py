@@ -78,7 +78,8 @@ def test_a_runner_up_without_a_score_says_why():
 def test_a_hypothesis_not_fitted_stands_while_its_free_delta_could_explain_as_much(free_gain, excluded):
     """A free delta bounds what any closed form of its hypothesis gains: one not fitted is excluded where
     its free delta gained, on the screened trajectories, less than the chosen closed form gained there
-    (1000 on the first two of three) by more than half the margin (10); not where it comes within it."""
+    (1000 on the first two of three) by more than half the margin (10); not where it comes within it;
+    once fitted, it is no longer listed."""
     from costa.discover.sparse.filter.search import Screen, could_explain_as_well
     from costa.discover.sparse.rounds import HypothesisScore
 
@@ -90,6 +91,7 @@ def test_a_hypothesis_not_fitted_stands_while_its_free_delta_could_explain_as_mu
     )  # fmt: skip
     chosen = SimpleNamespace(log_likelihood=np.array([100.0, 100.0, 1e6]))
     assert could_explain_as_well(chosen, screen, margin=10.0) == ([] if excluded else [h])
+    assert could_explain_as_well(chosen, screen, margin=10.0, fitted=[SimpleNamespace(hypothesis=h)]) == []
 
 
 @pytest.mark.integration

@@ -773,7 +773,7 @@ def decide_round(
     undecided = different + matched + outscreened
     unfitted = [
         h
-        for h in could_explain_as_well(chosen, screen, settings.equivalence * dispersion)
+        for h in could_explain_as_well(chosen, screen, settings.equivalence * dispersion, ranking)
         if not same_sensitivity(h, chosen.hypothesis, model)
     ]
     fitted = [c.hypothesis for c in ranking if c.features]
@@ -830,8 +830,10 @@ def decide_round(
     )  # fmt: skip
 
 
-def could_explain_as_well(chosen: SparseCandidate, screen: Screen, margin: float) -> list[Hypothesis]:
-    """The hypotheses not fitted that the screen cannot exclude: a free delta along a hypothesis gains at
+def could_explain_as_well(
+    chosen: SparseCandidate, screen: Screen, margin: float, fitted: Sequence[SparseCandidate] = ()
+) -> list[Hypothesis]:
+    """The hypotheses not ``fitted`` that the screen cannot exclude: a free delta along a hypothesis gains at
     least as much likelihood as any closed form of it (on top_heat_loss's partial record the four fitted
     closed forms gained 0.1-1.3 % less than their free deltas on the screened trajectories), so one whose
     free delta falls short of the chosen closed form's gain on those trajectories by half the BIC
@@ -839,7 +841,12 @@ def could_explain_as_well(chosen: SparseCandidate, screen: Screen, margin: float
     n = screen.screened
     gains = chosen.log_likelihood[:n] - screen.log_likelihood[:n]
     lead = float(gains[np.isfinite(gains)].sum())  # where both filters held
-    return [s.hypothesis for s in screen.others if not s.log_likelihood_gain < lead - margin / 2]
+    tried = {c.hypothesis.key for c in fitted}
+    return [
+        s.hypothesis
+        for s in screen.others
+        if not s.log_likelihood_gain < lead - margin / 2 and s.hypothesis.key not in tried
+    ]
 
 
 def _small_form_error(chosen: SparseCandidate, settings: DiscoverySettings) -> bool:
