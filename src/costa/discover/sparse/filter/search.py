@@ -835,7 +835,8 @@ def could_explain_as_well(
 ) -> list[Hypothesis]:
     """The hypotheses not ``fitted`` that the screen cannot exclude: a free delta along a hypothesis gains at
     least as much likelihood as any closed form of it (on top_heat_loss's partial record the four fitted
-    closed forms gained 0.1-1.3 % less than their free deltas on the screened trajectories), so one whose
+    closed forms gained 0.1-1.3 % less than their free deltas on the screened trajectories; not where delta(t)
+    moves faster than the walk follows: dev 51's transfer form gained 512, its free delta 334), so one whose
     free delta falls short of the chosen closed form's gain on those trajectories by half the BIC
     ``margin`` cannot explain them as well; the others may.  A name stands only where none is left."""
     n = screen.screened
