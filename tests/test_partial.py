@@ -526,7 +526,8 @@ def test_a_hypothesis_the_screen_cannot_exclude_is_fitted_before_the_round_is_de
     """A round undecided only because the screen could not exclude a hypothesis that was not fitted fits
     it and is decided again (here it loses, and the name stands); with no fit left in ``partial_fits`` it
     stays listed and nothing more is fitted; where the round is undecided for another reason too, it stays
-    undecided; a listed hypothesis without a screen score (a chain's part) is not fitted here."""
+    undecided; a listed hypothesis without a screen score (a chain's part) is not fitted here, nor one fitted
+    already that stays listed (a chain's part whose fit held no term)."""
     from costa.discover.core.outcome import Decision
     from costa.discover.sparse.filter import search
     from costa.discover.sparse.rounds import HypothesisScore
@@ -535,10 +536,10 @@ def test_a_hypothesis_the_screen_cannot_exclude_is_fitted_before_the_round_is_de
     rival = HypothesisScore(hypothesis=h, scale=1.0, walk=0.0, log_likelihood_gain=1000.0)
     screen = SimpleNamespace(others=[rival], seed=0, tests=[])
     chosen = SimpleNamespace(hypothesis=SimpleNamespace(key="term:bath_energy"))
-    other_reason = []
+    other_reason, held_no_term = [], []
 
     def decide(model, obs, settings, screen, ranking, named):
-        listed = [] if any(c.hypothesis.key == h.key for c in ranking) else [h]
+        listed = [] if any(c.hypothesis.key == h.key for c in ranking) and not held_no_term else [h]
         undecided = bool(listed or other_reason)
         return SimpleNamespace(decision=Decision.NOT_IDENTIFIABLE if undecided else Decision.NAMED, not_fitted=listed)
 
@@ -561,6 +562,9 @@ def test_a_hypothesis_the_screen_cannot_exclude_is_fitted_before_the_round_is_de
 
     assert run(2) == (Decision.NAMED, [rival])
     assert run(1) == (Decision.NOT_IDENTIFIABLE, [])
+    held_no_term.append(True)
+    assert run(12) == (Decision.NOT_IDENTIFIABLE, [rival])  # fitted once, not again
+    held_no_term.clear()
     other_reason.append("a rival screened ahead")
     assert run(2) == (Decision.NOT_IDENTIFIABLE, [rival])
     screen.others = []
