@@ -686,7 +686,8 @@ def with_unexcluded(
     others = {s.hypothesis.key: s for s in screen.others}
     while True:
         found = decide_round(model, obs, settings=settings, screen=screen, ranking=fits, named=named)
-        tried = {c.hypothesis.key for c in fits}  # a chain part fitted to no term (none held, its filter lost) is listed still
+        # a chain part fitted to no term (none held, its filter lost) is listed still
+        tried = {c.hypothesis.key for c in fits}
         left = [others[h.key] for h in found.not_fitted if h.key in others and h.key not in tried]
         room = settings.partial_fits - len(fits)
         if found.decision is not Decision.NOT_IDENTIFIABLE or not left or room <= 0:
