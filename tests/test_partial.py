@@ -27,7 +27,7 @@ from costa.discover.pipeline import (
 )
 from costa.discover.sparse.filter.likelihood import hypothesis_scales
 from costa.discover.sparse.filter.search import discover_round
-from costa.discover.sparse.innovations import innovation_tests
+from costa.discover.sparse.innovations import LostCell, innovation_tests
 from costa.discover.sparse.observations import Observations, channel_noise
 from costa.discover.sparse.observed import estimate_states
 from costa.discover.sparse.pipeline import observations
@@ -131,6 +131,11 @@ def test_no_effect_under_partial_measurements_names_nothing(default_config):
     result = run_discovery(config, train, held_out, start, "no_effect/partial", "test")
     assert not result.rounds[0].flagged and result.rounds[0].chosen is None
     assert result.corrected is start
+    assert findings(result, "no_effect/partial", start, {"data": "test"})["rounds"][0]["filter_lost"] == []
+    lost = replace(result, rounds=[replace(result.rounds[0], lost=[LostCell(1, 2.5)])])
+    found = findings(lost, "no_effect/partial", start, {"data": "test"})
+    assert found["rounds"][0]["filter_lost"] == [{"cell": 1, "hour": 2.5}]
+    assert "was lost on cell 1 (from hour 2.5)" in findings_markdown(found)
 
 
 def _one_round_on(truth, name: str):

@@ -9,7 +9,16 @@ import pytest
 
 from costa.discover.cases.shipped import add_noise
 from costa.discover.cases.unshipped import find_case
-from costa.discover.sparse.innovations import LOST_EXCESS, ChannelTest, explained_share, innovation_tests, lone_cell
+from costa.discover.sparse.innovations import (
+    LOST_EXCESS,
+    ChannelTest,
+    LostCell,
+    describe_lost,
+    explained_share,
+    innovation_tests,
+    lone_cell,
+    lost_cells,
+)
 from costa.discover.sparse.observed import estimate_states
 from costa.observe import observe
 from costa.physics import ablated_model, true_model
@@ -157,6 +166,40 @@ def test_a_flag_carried_by_one_lost_cell_names_that_cell_and_where(scale, off, l
     assert found.hours[0] == pytest.approx(3.67, abs=0.1) and found.hours[1] == pytest.approx(6.67, abs=0.1)
     assert not any(t.flagged for t in innovation_tests(np.delete(e, lone, axis=0), ["U_cell", "x6"]))
     assert lone_cell(e[:1], ["U_cell", "x6"], tests, 10.0, 0, 6.0, 0.1) is None  # one cell: nothing to leave out
+
+
+def test_a_cell_whose_filter_is_lost_is_named_from_where_it_has_no_innovation(truth):
+    """The filter of the true model on 4 cells' voltage (every 10 s) and hourly bath temperature follows
+    every cell from the first states they were simulated from; started with cell 2's AlF3 at -500 kg
+    (its liquidus reads a power of the AlF3 fraction, not a number below 0) it loses that cell at the second
+    sample (the first step's rates are not numbers) and holds the others.  A sample not taken (NaN) is not a loss."""
+    x, u = truth
+    sensors = SensorSet("plant", (Sensor("U_cell", 10.0, 0.005), Sensor("x6", 3600.0, 1.5)))
+    table = measure(true_model(), x, u, 10.0, sensors, np.random.default_rng(1))
+    y = table[["U_cell", "x6"]].to_numpy().reshape(4, -1, 2)
+    noise = np.array([0.005, 1.5])
+    start = x[:, 0].copy()
+    held = estimate_states(true_model(), y, u, ["U_cell", "x6"], noise, 10.0, backward=False, start=start)
+    assert np.isfinite(held.log_likelihood).all() and lost_cells(held.innovation, y, 10.0) == []
+    start[2, 2] = -500.0
+    lost = estimate_states(true_model(), y, u, ["U_cell", "x6"], noise, 10.0, backward=False, start=start)
+    assert np.isfinite(lost.log_likelihood).tolist() == [True, True, False, True]
+    assert lost_cells(lost.innovation, y, 10.0) == [LostCell(cell=2, hour=10.0 / 3600)]  # its first step's rates
+
+
+def test_lost_cells_are_placed_at_their_first_sample_without_innovation():
+    """Innovations of 3 cells, 720 steps of 10 s, a channel every step and one every 360 steps: cell 1 has
+    none from step 540 (hour 1.5), cell 2 none where nothing was sampled alone."""
+    y = np.full((3, 720, 2), 1.0)
+    y[:, :, 1] = np.nan
+    y[:, ::360, 1] = 1.0
+    e = np.where(np.isfinite(y), 0.5, np.nan)
+    e[1, 540:] = np.nan
+    assert lost_cells(e, y, 10.0) == [LostCell(cell=1, hour=1.5)]
+    assert describe_lost([LostCell(0, 1.5)]) == "cell 0 (from hour 1.5)"
+    assert describe_lost([LostCell(0, 1.5), LostCell(4, 15.8), LostCell(5, 20.0)]) == (
+        "cells 0 (from hour 1.5), 4 (from hour 15.8) and 5 (from hour 20)"
+    )
 
 
 def test_a_crane_scale_reads_each_tap_once_and_weighs_what_left_the_cell(truth):

@@ -16,6 +16,7 @@ from .core.hypotheses import candidate_hypotheses
 from .core.naming import fit_outcome, removal
 from .core.outcome import Outcome, Round
 from .rates import how_often_right
+from .sparse.innovations import LostCell, describe_lost
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
 LEVELS = (0.95, KEEP_LEVEL)
@@ -144,6 +145,7 @@ def _sparse_round(index: int, r: Round) -> dict[str, Any]:
             for t in r.tests
         ],  # fmt: skip
         "left_out_cell": None if r.left_out is None else dataclasses.asdict(r.left_out),
+        "filter_lost": [dataclasses.asdict(c) for c in r.lost],
         "flagged": r.flagged,
         "decided_by": DECIDED_BY[r.route] if r.flagged else None,
         "verdict": r.verdict,
@@ -495,6 +497,13 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
     ]
     if r.get("left_out_cell"):
         lines += [f"Cell {r['left_out_cell']['cell']} left out: it alone disagreed (the verdict says where).", ""]
+    if r.get("filter_lost"):
+        lost = describe_lost([LostCell(**c) for c in r["filter_lost"]])
+        lines += [
+            f"The filter of the model tested was lost on {lost}: it could not follow them from there, and their "
+            "samples from there are in no test or likelihood (the scores use the cells it holds).",
+            "",
+        ]
     lines.append("| channel | meaning | samples | chi2/dof | z | bias | bias z | whiteness z | disagrees |")
     lines.append("|---|---|---|---|---|---|---|---|---|")
     lines += [

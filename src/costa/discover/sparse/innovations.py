@@ -13,7 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ChannelTest", "LoneCell", "explained_share", "innovation_excess", "innovation_tests", "lone_cell"]
+__all__ = [
+    "ChannelTest", "LoneCell", "LostCell", "describe_lost", "explained_share", "innovation_excess", "innovation_tests",
+    "lone_cell", "lost_cells",
+]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -180,3 +183,28 @@ def _packed(e: np.ndarray) -> np.ndarray:
     for i, r in enumerate(rows):
         packed[i, : len(r)] = r
     return packed
+
+
+@dataclass(frozen=True)
+class LostCell:
+    """A cell whose filter was lost (its predicted covariance no longer one) from ``hour`` (from the record's
+    start) on: its samples from there have no innovation, so the channel tests and the likelihoods leave them out."""
+
+    cell: int
+    hour: float
+
+
+def lost_cells(innovation: np.ndarray, y: np.ndarray, step_s: float) -> list[LostCell]:
+    """The cells of a filter's innovations (n, K, C) that have none at a sample of y (n, K, C) (the filter lost
+    there), each from its first such step; ``step_s`` [s] a step."""
+    lost = (np.isfinite(y) & ~np.isfinite(innovation)).any(-1)  # (n, K)
+    return [
+        LostCell(cell=int(i), hour=float(np.argmax(lost[i]) * step_s / 3600.0)) for i in np.flatnonzero(lost.any(1))
+    ]
+
+
+def describe_lost(lost: Sequence[LostCell]) -> str:
+    """'cells 0 (from hour 1.6) and 4 (from hour 15.8)'."""
+    each = [f"{c.cell} (from hour {c.hour:.3g})" for c in lost]
+    listed = each[0] if len(each) == 1 else ", ".join(each[:-1]) + f" and {each[-1]}"
+    return f"cell{'s' * (len(each) > 1)} {listed}"

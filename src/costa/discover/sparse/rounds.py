@@ -21,7 +21,7 @@ from ..core.hypotheses import Hypothesis
 from ..core.library import Feature
 from ..core.outcome import Decision, Round
 from ..core.settings import DiscoverySettings
-from .innovations import ChannelTest, LoneCell, innovation_tests, lone_cell
+from .innovations import ChannelTest, LoneCell, LostCell, innovation_tests, lone_cell, lost_cells
 from .measure_next import Recommendation
 from .observations import Observations
 from .observed import estimate_states
@@ -115,6 +115,7 @@ class SparseRound(Round):
     route: str = "filter"  # how the round was decided: "filter" (:mod:`.filter`) or "shooting" (:mod:`.shooting`)
     not_fitted: list[Hypothesis] = field(default_factory=list)
     left_out: LoneCell | None = None  # the cell left out of the tests (:func:`round_tests`)
+    lost: list[LostCell] = field(default_factory=list)  # the cells the uncorrected model's filter lost (ditto)
 
     @classmethod
     def quiet(cls, model: CellModel, tests: list[ChannelTest], left_out: LoneCell | None = None) -> SparseRound:
@@ -168,10 +169,11 @@ def channel_tests(
 
 def round_tests(
     model: CellModel, obs: Observations, settings: DiscoverySettings, backward: bool = True
-) -> tuple[list[ChannelTest], Smoothed, LoneCell | None]:
+) -> tuple[list[ChannelTest], Smoothed, LoneCell | None, list[LostCell]]:
     """The tests that open a round, whether ``model`` disagrees with the record at all: :func:`channel_tests`;
     where one cell alone carries every flag (:func:`.innovations.lone_cell`), the tests with it left out (none
-    flagged) and that cell.  On a drawn plant record made by the starting model itself, one cell of twelve,
+    flagged) and that cell; and the cells whose filter was lost, from where (:func:`.innovations.lost_cells`: the
+    tests hold none of their samples from there).  On a drawn plant record made by the starting model itself, one cell of twelve,
     its filter settling for 32 h from a ledge 535 kg off, flagged three channels.  A correction's tests keep
     every cell: it is named only where it follows every one."""
     tests, smoothed = channel_tests(model, obs, settings, backward)
@@ -182,7 +184,7 @@ def round_tests(
     if lone is not None:
         rest = np.delete(settled, lone.cell, axis=0)
         tests = innovation_tests(rest, obs.channels, settings.z_threshold, settings.min_excess)
-    return tests, smoothed, lone
+    return tests, smoothed, lone, lost_cells(smoothed.innovation, obs.y, obs.dt)
 
 
 def likelihood_gains(rows: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -22,7 +22,7 @@ from typing import Any
 from ...physics import CellModel
 from ..core.hypotheses import candidate_hypotheses
 from .filter.search import Screen
-from .innovations import ChannelTest, LoneCell
+from .innovations import ChannelTest, LoneCell, LostCell
 from .observations import Observations
 from .rounds import HypothesisScore, SparseCandidate
 from .shooting.fit import ShootingFit
@@ -57,6 +57,7 @@ def write_screen(screen: Screen, start, path: str | Path) -> None:
         "seed": screen.seed,
         "start": start,
         "left_out": _lone_record(screen.left_out),
+        "lost": [dataclasses.asdict(c) for c in screen.lost],
     }
     Path(path).write_bytes(pickle.dumps(record))
 
@@ -70,6 +71,7 @@ def read_screen(path: str | Path, model: CellModel) -> tuple[Screen, Any]:
     record["candidates"] = [_score(s, hypotheses) for s in record["candidates"]]
     record["others"] = [_score(s, hypotheses) for s in record["others"]]
     record["left_out"] = _lone(record.get("left_out"))
+    record["lost"] = [LostCell(**c) for c in record["lost"]]
     return Screen(**record), start
 
 
@@ -128,6 +130,7 @@ def write_shot_screen(screen: ShotScreen, start, path: str | Path) -> None:
         "forms": [_form_record(f) for f in screen.forms],
         "candidates": [position[id(f)] for f in screen.candidates],
         "left_out": _lone_record(screen.left_out),
+        "lost": [dataclasses.asdict(c) for c in screen.lost],
         "start": start,
     }
     Path(path).write_bytes(pickle.dumps(record))
@@ -142,7 +145,7 @@ def read_shot_screen(path: str | Path, model: CellModel) -> tuple[ShotScreen, An
     tests = [ChannelTest(**t) for t in record["tests"]]
     screen = ShotScreen(
         tests=tests, base=base, forms=forms, candidates=[forms[i] for i in record["candidates"]],
-        left_out=_lone(record["left_out"]),
+        left_out=_lone(record["left_out"]), lost=[LostCell(**c) for c in record["lost"]],
     )  # fmt: skip
     return screen, record["start"]
 

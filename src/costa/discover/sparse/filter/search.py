@@ -75,7 +75,7 @@ from ...core.naming import (
 from ...core.outcome import Decision
 from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
-from ..innovations import ChannelTest, LoneCell, explained_share, innovation_excess
+from ..innovations import ChannelTest, LoneCell, LostCell, explained_share, innovation_excess
 from ..measure_next import Recommendation, measure_next, to_separate
 from ..observations import Observations
 from ..rounds import (
@@ -592,8 +592,9 @@ class Screen:
     # of the first trajectories they were screened
     others: list[HypothesisScore] = field(default_factory=list)
     screened: int = 0
-    # a cell that alone disagreed, left out of the tests (:func:`..rounds.round_tests`)
+    # a cell that alone disagreed, left out of the tests, and the cells whose filter was lost (:func:`..rounds.round_tests`)
     left_out: LoneCell | None = None
+    lost: list[LostCell] = field(default_factory=list)
 
     @property
     def flagged(self) -> list[str]:
@@ -605,12 +606,13 @@ def screen_round(
 ) -> Screen:
     """Test the channels; where one disagrees, screen every hypothesis and keep the best of each
     physics (steps 1-2 of the module docstring).  Draws the round's fitting seed from ``rng``."""
-    tests, base, left_out = round_tests(model, obs, settings)
+    tests, base, left_out, lost = round_tests(model, obs, settings)
     states = base.mean[:, ::16, :8]
     if not any(t.flagged for t in tests):
         return Screen(
-            tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=[], seed=0, left_out=left_out
-        )
+            tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=[], seed=0, left_out=left_out,
+            lost=lost,
+        )  # fmt: skip
     screen = slice(0, max(1, settings.screen_steps // obs.y.shape[1]))
     few, few_states = obs.subset(screen), base.mean[screen]
     started = time.perf_counter()
@@ -632,7 +634,7 @@ def screen_round(
     candidates += chained(candidates, screened, model, screen_x, screen_u)
     return Screen(
         tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=candidates, seed=seed,
-        others=other_physics(screened, candidates, model, screen_x, screen_u), screened=len(few.y),
+        others=other_physics(screened, candidates, model, screen_x, screen_u), screened=len(few.y), lost=lost,
     )  # fmt: skip
 
 
@@ -665,6 +667,7 @@ def decided_round(
     variables: a law that reads two variables the basic library does not pair) decide it, where they
     end it otherwise: named or not identifiable by the same rules, rivals fitted alike."""
     found, fits = with_unexcluded(model, obs, settings=settings, screen=screen, fits=fits, named=named, rich=False)
+    found = replace(found, lost=screen.lost)
     if found.decision is not Decision.UNEXPLAINED or not fits:
         return found
     refitted = [_fit_screened(c.score, model, obs, settings, screen, rich=True, first=not named) for c in fits]
@@ -672,7 +675,7 @@ def decided_round(
     log.info("the richer term library: %s", richer.verdict)
     if richer.decision is Decision.UNEXPLAINED:
         return replace(found, verdict=f"{found.verdict}; so too with the richer term library")
-    return replace(richer, rich=True)
+    return replace(richer, rich=True, lost=screen.lost)
 
 
 def with_unexcluded(

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -49,7 +49,7 @@ from ...core.library import constant_inputs
 from ...core.naming import alike, chain_rivals, explains_enough, removal, unfitted_chain
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
-from ..innovations import ChannelTest, LoneCell, explained_share, innovation_tests
+from ..innovations import ChannelTest, LoneCell, LostCell, explained_share, innovation_tests
 from ..measure_next import measure_next, to_separate
 from ..observations import Observations
 from ..observed import start_is_searched
@@ -86,8 +86,9 @@ class ShotScreen:
     base: ShootingFit | None
     forms: list[ScreenedForm]
     candidates: list[ScreenedForm]
-    # a cell that alone disagreed, left out of the tests (:func:`..rounds.round_tests`)
+    # a cell that alone disagreed, left out of the tests, and the cells whose filter was lost (:func:`..rounds.round_tests`)
     left_out: LoneCell | None = None
+    lost: list[LostCell] = field(default_factory=list)
 
     @property
     def flagged(self) -> list[str]:
@@ -111,11 +112,12 @@ class ShotFit:
 
 def screen_by_shooting(model: CellModel, obs: Observations, settings: DiscoverySettings) -> ShotScreen:
     """Steps 1-2 of the module docstring; ``obs`` with each cell's first state searched under ``model``."""
-    tests, _, left_out = round_tests(model, obs, settings, backward=False)
+    tests, _, left_out, lost = round_tests(model, obs, settings, backward=False)
     if not any(t.flagged for t in tests):
-        return ShotScreen(tests=tests, base=None, forms=[], candidates=[], left_out=left_out)
+        return ShotScreen(tests=tests, base=None, forms=[], candidates=[], left_out=left_out, lost=lost)
     few = shooting_cells(obs, settings.shooting_cells)
-    return ShotScreen(tests, *screened_forms(model, candidate_hypotheses(model, constant_inputs(obs.u)), few, settings))
+    hypotheses = candidate_hypotheses(model, constant_inputs(obs.u))
+    return ShotScreen(tests, *screened_forms(model, hypotheses, few, settings), lost=lost)
 
 
 def screened_forms(
@@ -220,7 +222,7 @@ def decide_by_shooting(
     a cell that the right correction follows at its noise)."""
     if obs.start is None and start_is_searched(obs.y, obs.channels):
         raise ValueError("decide_by_shooting: obs must carry the first states searched under the starting model")
-    return replace(_decided(model, screen, fits, obs, settings), route="shooting")
+    return replace(_decided(model, screen, fits, obs, settings), route="shooting", lost=screen.lost)
 
 
 def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observations, settings) -> SparseRound:
