@@ -198,7 +198,7 @@ def test_lost_cells_are_placed_at_their_first_sample_without_innovation():
     assert lost_cells(e, y, 10.0) == [LostCell(cell=1, hour=1.5)]
     assert describe_lost([LostCell(0, 1.5)]) == "cell 0 (from hour 1.5)"
     assert describe_lost([LostCell(0, 1.5), LostCell(4, 15.8), LostCell(5, 20.0)]) == (
-        "cells 0 (from hour 1.5), 4 (from hour 15.8) and 5 (from hour 20)"
+        "cells 0 (from hour 1.5), 4 (from hour 15.8) and 5 (from hour 20.0)"
     )
 
 

@@ -204,7 +204,7 @@ def lost_cells(innovation: np.ndarray, y: np.ndarray, step_s: float) -> list[Los
 
 
 def describe_lost(lost: Sequence[LostCell]) -> str:
-    """'cells 0 (from hour 1.6) and 4 (from hour 15.8)'."""
-    each = [f"{c.cell} (from hour {c.hour:.3g})" for c in lost]
+    """'cells 0 (from hour 0.0) and 4 (from hour 15.8)'."""
+    each = [f"{c.cell} (from hour {c.hour:.1f})" for c in lost]
     listed = each[0] if len(each) == 1 else ", ".join(each[:-1]) + f" and {each[-1]}"
     return f"cell{'s' * (len(each) > 1)} {listed}"
