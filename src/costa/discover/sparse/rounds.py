@@ -115,7 +115,7 @@ class SparseRound(Round):
     route: str = "filter"  # how the round was decided: "filter" (:mod:`.filter`) or "shooting" (:mod:`.shooting`)
     not_fitted: list[Hypothesis] = field(default_factory=list)
     left_out: LoneCell | None = None  # the cell left out of the tests (:func:`round_tests`)
-    lost: list[LostCell] = field(default_factory=list)  # the cells the uncorrected model's filter lost (ditto)
+    lost: list[LostCell] = field(default_factory=list)  # the cells the tested model's filter lost (:func:`round_tests`)
 
     @classmethod
     def quiet(cls, model: CellModel, tests: list[ChannelTest], left_out: LoneCell | None = None) -> SparseRound:
@@ -172,10 +172,10 @@ def round_tests(
 ) -> tuple[list[ChannelTest], Smoothed, LoneCell | None, list[LostCell]]:
     """The tests that open a round, whether ``model`` disagrees with the record at all: :func:`channel_tests`;
     where one cell alone carries every flag (:func:`.innovations.lone_cell`), the tests with it left out (none
-    flagged) and that cell; and the cells whose filter was lost, from where (:func:`.innovations.lost_cells`: the
-    tests hold none of their samples from there).  On a drawn plant record made by the starting model itself, one cell of twelve,
-    its filter settling for 32 h from a ledge 535 kg off, flagged three channels.  A correction's tests keep
-    every cell: it is named only where it follows every one."""
+    flagged) and that cell; and the cells whose filter was lost, from where (:func:`.innovations.lost_cells`:
+    the tests hold none of their samples from there).  On a drawn plant record made by the starting model
+    itself, one cell of twelve, its filter settling for 32 h from a ledge 535 kg off, flagged three channels.
+    A correction's tests keep every cell: it is named only where it follows every one."""
     tests, smoothed = channel_tests(model, obs, settings, backward)
     settled = smoothed.innovation[:, obs.settling_steps :]
     lone = lone_cell(

@@ -592,7 +592,7 @@ class Screen:
     # of the first trajectories they were screened
     others: list[HypothesisScore] = field(default_factory=list)
     screened: int = 0
-    # a cell that alone disagreed, left out of the tests, and the cells whose filter was lost (:func:`..rounds.round_tests`)
+    # a cell that alone disagreed (left out of the tests) and the cells lost (:func:`..rounds.round_tests`)
     left_out: LoneCell | None = None
     lost: list[LostCell] = field(default_factory=list)
 

@@ -86,7 +86,7 @@ class ShotScreen:
     base: ShootingFit | None
     forms: list[ScreenedForm]
     candidates: list[ScreenedForm]
-    # a cell that alone disagreed, left out of the tests, and the cells whose filter was lost (:func:`..rounds.round_tests`)
+    # a cell that alone disagreed (left out of the tests) and the cells lost (:func:`..rounds.round_tests`)
     left_out: LoneCell | None = None
     lost: list[LostCell] = field(default_factory=list)
 
