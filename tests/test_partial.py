@@ -539,7 +539,7 @@ def test_a_hypothesis_the_screen_cannot_exclude_is_fitted_before_the_round_is_de
 
     h = next(h for h in candidate_hypotheses(true_model()) if h.key == "term:ledge_energy")
     rival = HypothesisScore(hypothesis=h, scale=1.0, walk=0.0, log_likelihood_gain=1000.0)
-    screen = SimpleNamespace(others=[rival], seed=0, tests=[])
+    screen = SimpleNamespace(others=[rival], seed=0, tests=[], states=None)
     chosen = SimpleNamespace(hypothesis=SimpleNamespace(key="term:bath_energy"))
     other_reason, held_no_term = [], []
 
@@ -962,7 +962,7 @@ def test_an_alf3_dependent_conductivity_is_fitted_as_its_relative_slope_alone():
     assert [f.name for f in _single_terms(part, False)] == ["own", *(f"own*{v}" for v in FIRST_ORDER[1:])]
     tests, base = channel_tests(model, obs, settings)
     (score,), _ = score_hypotheses(model, [part], obs, settings.window, base.mean[..., :8], walks=settings.walks)
-    alone = _fit(score, model, obs, settings, 0, False, tests, first=True)
+    alone = _fit(score, model, obs, settings, 0, False, tests, first=True, states=base.mean[:, ::16, :8])
     excess = obs.y[..., obs.channels.index("c3")] - 0.11
     excess = excess[np.isfinite(excess)]
     slope = np.sum(excess * np.expm1(-3.5 * excess)) / np.sum(excess**2)
@@ -971,28 +971,32 @@ def test_an_alf3_dependent_conductivity_is_fitted_as_its_relative_slope_alone():
     assert not any(t.flagged for t in alone.tests_after)
 
 
-def test_a_hypothesis_whose_filter_is_lost_on_half_the_cells_is_not_fitted(monkeypatch):
-    """Smoothed along current_efficiency, alumina_feeder's plant record holds 6 of its 12 cells: no
-    closed form rests on the other half (the refinement gives up at the same share), so the
-    candidate goes on with no terms, and none of the fit's stages runs; 7 of 12 is fitted."""
+def test_a_hypothesis_whose_free_delta_is_lost_on_half_the_cells_is_fitted_on_the_channels(monkeypatch):
+    """AlF3 lost at a constant 0.03 kg/s on four cells, and its free delta's filter lost on two of them
+    (as a pot line's daily samples lose it): the flow is fitted by the other route, its constant refined
+    from zero on the measured channels, the truth within its interval and every channel within noise,
+    with the filter's states to tell it from rivals; where that refinement fails too, no terms."""
     from costa.compiled import Smoothed
     from costa.discover.sparse.filter import search
-    from costa.discover.sparse.filter.likelihood import mostly_lost
-    from costa.discover.sparse.rounds import HypothesisScore
+    from costa.discover.sparse.filter.likelihood import hypothesis_scales, mostly_lost
+    from costa.discover.sparse.rounds import HypothesisScore, channel_tests
 
     assert mostly_lost(np.arange(12) < 6) and not mostly_lost(np.arange(12) < 7)
-    mean = np.ones((12, 5, 9))
-    mean[6:, 3:] = np.nan
-    smoothed = Smoothed(mean, mean, np.zeros((12, 5, 1)), np.zeros(12), None)
-    monkeypatch.setattr(search, "smooth_hypothesis", lambda *args: smoothed)
-
-    def never(*args, **kwargs):
-        raise AssertionError("a hypothesis lost on half the cells was fitted")
-
-    monkeypatch.setattr(search, "_closed_form", never)
-    score = HypothesisScore(
-        hypothesis=SimpleNamespace(key="property:current_efficiency"), scale=1.0, walk=0.3, log_likelihood_gain=1.0
-    )
-    obs = Observations(y=np.zeros((12, 5, 1)), u=np.zeros((12, 5, 5)), channels=("U_cell",), noise=np.ones(1), dt=10.0)
-    candidate = search._fit(score, true_model(), obs, DiscoverySettings(), 0, False, [], first=True)
-    assert candidate.features == [] and candidate.corrected is None and candidate.samples.shape == (200, 0)
+    model, term, obs = _hidden_constant("term:alf3_mass", -0.03, cells=4, stream="lost")
+    settings = settings_from_config(load_config())
+    tests, base = channel_tests(model, obs, settings)
+    states = base.mean[:, ::16, :8]
+    (scale,) = hypothesis_scales(model, [term], obs, settings.window, base.mean[..., :8])
+    mean = np.ones(obs.y.shape[:2] + (9,))
+    mean[2:, 300:] = np.nan
+    lost = Smoothed(mean, mean, np.zeros(obs.y.shape), np.zeros(4), None)
+    monkeypatch.setattr(search, "smooth_hypothesis", lambda *args: lost)
+    score = HypothesisScore(hypothesis=term, scale=float(scale), walk=0.3, log_likelihood_gain=1.0)
+    fitted = search._fit(score, model, obs, settings, 0, False, tests, first=True, states=states)
+    assert [f.name for f in fitted.features] == ["1"] and fitted.corrected is not None
+    sigma = fitted.samples[:, 0].std()
+    assert abs(fitted.coefficients[0] + 0.03) < 4 * sigma, (fitted.coefficients, sigma)
+    assert (fitted.log_likelihood > base.log_likelihood).all() and fitted.states.shape == obs.y.shape[:2] + (8,)
+    monkeypatch.setattr(search, "refine_coefficients", lambda *args, **kwargs: None)
+    unfitted = search._fit(score, model, obs, settings, 0, False, tests, first=True, states=states)
+    assert unfitted.features == [] and unfitted.corrected is None and unfitted.samples.shape == (settings.bootstrap, 0)

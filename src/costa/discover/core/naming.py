@@ -298,9 +298,10 @@ def chain_rivals(
 
 def fit_outcome(fitted: bool, explained: float, scored: bool) -> str:
     """What a candidate's correction did to the flagged channels' excess, in words, or why it has
-    none: not ``fitted`` (its filter lost on half the cells or more, or no term held), or not
-    ``scored`` (the corrected filter lost a cell that the uncorrected model's holds)."""
+    none: not ``fitted`` (no term held, or its filter was lost on half the cells or more, by its free
+    delta and on the channels alike), or not ``scored`` (the corrected filter lost a cell that the
+    uncorrected model's holds)."""
     if not fitted:
-        return "could not be fitted (its filter was lost on half the cells or more, or no term held)"
+        return "could not be fitted (no term held, or its filter was lost on half the cells or more by both routes)"
     effect = removal(explained)
     return effect if scored else f"{effect}, but its filter is lost on a cell the uncorrected model's holds"

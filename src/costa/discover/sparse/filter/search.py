@@ -9,7 +9,8 @@ One round on the current model:
    the best ``partial_candidates`` go on, one of each group of the same physics
    (:func:`distinct_physics`);
 3. each of those is smoothed on all trajectories (one whose filter is lost on half of
-   them or more goes no further), its delta(t) regressed on the physical
+   them or more is fitted by the other route: its one-term forms refined on the measured
+   channels, :func:`_fitted_on_channels`), its delta(t) regressed on the physical
    terms (:mod:`...core.library`) evaluated at the smoothed states, window by window, with one
    bootstrap over blocks of trajectories for selection and intervals (a term is kept
    only if its :data:`...core.fitted_terms.KEEP_LEVEL` interval excludes zero), and the corrected
@@ -363,26 +364,21 @@ def _fit(
     rich: bool,
     tests: list[ChannelTest],
     first: bool,
+    states: np.ndarray,
 ) -> SparseCandidate:
     """Smooth one hypothesis on every trajectory, fit its closed form, refine its coefficients on the
     measured channels, test the corrected model's innovations and keep its likelihood (scored
     against the other candidates by :func:`_score`); in the ``first`` round, one term alone where
     it scores better (:func:`_one_term_if_better`).  Every candidate of a round resamples with
-    the same ``seed``.  A hypothesis whose smoothed filter is lost on half the trajectories or
-    more is not fitted (its refinement would give up there too)."""
+    the same ``seed``.  A hypothesis whose free delta's filter is lost on half the trajectories or
+    more is fitted by the other route: its one-term forms refined from zero on the measured channels
+    (:func:`_fitted_on_channels`), sized on the uncorrected model's ``states`` (n, K/16, 8)."""
     started = time.perf_counter()
     smoothed = smooth_hypothesis(model, score, obs, settings.window)
-    if mostly_lost(np.isfinite(smoothed.mean).all((1, 2))):
-        log.info("%s: its filter is lost on half the trajectories or more, not fitted", score.hypothesis.key)
-        return SparseCandidate(
-            score=score,
-            states=smoothed.mean[..., :8],
-            features=[],
-            coefficients=np.zeros(0),
-            samples=np.zeros((settings.bootstrap, 0)),
-            inclusion={},
-        )
     rng = np.random.default_rng(seed)
+    if mostly_lost(np.isfinite(smoothed.mean).all((1, 2))):
+        log.info("%s: its free delta's filter is lost on half the trajectories or more", score.hypothesis.key)
+        return _fitted_on_channels(score, model, obs, settings, states=states, tests=tests, rich=rich, rng=rng)
     *fit, inclusion = _closed_form(
         score.hypothesis, model, smoothed=smoothed, obs=obs, settings=settings, rng=rng, rich=rich
     )
@@ -435,19 +431,14 @@ def _one_term_if_better(
     of an earlier round's closed form (the liquidus law named from partial records lost its name to a
     constant bath-ledge transfer)."""
     h = candidate.score.hypothesis
-    samples = np.log(max(int(np.isfinite(obs.y).sum()), 2))
-
-    def score(likelihood: np.ndarray, terms: int) -> tuple[int, float]:
-        held = np.isfinite(likelihood)
-        return int(held.sum()), 2 * float(likelihood[held].sum()) - terms * samples
-
-    best, best_score = None, score(candidate.log_likelihood, len(candidate.features))
+    samples = int(np.isfinite(obs.y).sum())
+    best, best_score = None, _alone_score(candidate.log_likelihood, len(candidate.features), samples)
     for term in _single_terms(h, rich):
         if [f.name for f in candidate.features] == [term.name]:
             continue
         alone = _refined_alone(h, term, model, obs, settings, smoothed=smoothed)
-        if alone is not None and score(alone.log_likelihood, 1) >= best_score:
-            best, best_score = alone, score(alone.log_likelihood, 1)
+        if alone is not None and _alone_score(alone.log_likelihood, 1, samples) >= best_score:
+            best, best_score = alone, _alone_score(alone.log_likelihood, 1, samples)
     if best is None:
         return
     term, refined = best.term, best.refined
@@ -458,6 +449,13 @@ def _one_term_if_better(
     )
     candidate.corrected, candidate.placed = best.corrected, best.placed
     candidate.tests_after, candidate.log_likelihood = best.tests, best.log_likelihood
+
+
+def _alone_score(likelihood: np.ndarray, terms: int, samples: int) -> tuple[int, float]:
+    """A closed form's score by the round's own measure: the trajectories its filter holds, then
+    2 log-likelihood (per trajectory, (n,)) - ``terms`` x ln(``samples``) on those."""
+    held = np.isfinite(likelihood)
+    return int(held.sum()), 2 * float(likelihood[held].sum()) - terms * np.log(max(samples, 2))
 
 
 def _single_terms(h: Hypothesis, rich: bool) -> list[Feature]:
@@ -501,6 +499,15 @@ def _refined_alone(
     start = np.array([np.sum(delta * values) / max(float(np.sum(values**2)), 1e-300)])
     spread = float(np.std(delta)) / max(float(np.mean(np.abs(values))), 1e-300)
     width = np.maximum(0.5 * np.abs(start), spread) + 1e-300
+    return _alone_from(h, term, model, obs, settings, start=start, width=width)
+
+
+def _alone_from(
+    h: Hypothesis, term: Feature, model: CellModel, obs: Observations, settings: DiscoverySettings, *,
+    start: np.ndarray, width: np.ndarray,
+) -> _Alone | None:  # fmt: skip
+    """One ``term`` refined alone on the measured channels from ``start`` (1,) with the prior ``width``
+    (1,), until it converges, and the corrected model's tests; None where the refinement fails."""
     placed = obs.searched_again(h.corrected(model, [term], start))
     refined = refine_coefficients(model, h, [term], start, width, placed, passes=MAX_PASSES, converged=CONVERGED)
     if refined is None:
@@ -509,6 +516,56 @@ def _refined_alone(
     placed = obs.searched_again(corrected)
     tests, after = channel_tests(corrected, placed, settings, backward=False)
     return _Alone(term, refined, corrected, placed, tests, after.log_likelihood)
+
+
+def _fitted_on_channels(
+    score: HypothesisScore, model: CellModel, obs: Observations, settings: DiscoverySettings, *,
+    states: np.ndarray, tests: list[ChannelTest], rich: bool, rng,
+) -> SparseCandidate:  # fmt: skip
+    """A hypothesis whose free delta's filter is lost, fitted by the other route: each of its one-term
+    forms (:func:`_single_terms`; a flow's constant) refined from zero on the measured channels
+    (:func:`_alone_from`), with the prior width of the screen's scale (the delta that moves the most
+    sensitive channel by its noise over a window; held over a record, far more than its noise) over the
+    term's typical size on the uncorrected model's ``states`` (n, K/16, 8, every 16th step).  The one
+    that scores best (:func:`_alone_score`) is the candidate's form, with its smoothed states; no terms
+    where none refines.  The free delta follows the effect and the filter's errors alike: on a pot
+    line's daily samples it lets a mass reach zero in hours and the filter gives up, where a closed
+    form fitted on the channels holds every cell (dev pot_line 2: a constant ledge-AlF3 transfer,
+    refined from 30 scales, lost its cells too; from 3 or 0.3, -0.00214 or -0.00224 kg/s)."""
+    h = score.hypothesis
+    candidate = SparseCandidate(
+        score=score, states=states, features=[], coefficients=np.zeros(0), samples=np.zeros((settings.bootstrap, 0)),
+        inclusion=None,
+    )  # fmt: skip
+    u = obs.u[:, ::16]  # the states' steps
+    samples = int(np.isfinite(obs.y).sum())
+    best, best_score = None, None
+    for term in _single_terms(h, rich) or [f for f in h.features(rich) if f.name == "1"]:
+        size = float(np.nanmean(np.abs(_feature_values(h, model, [term], states, u))))
+        if not np.isfinite(size) or size <= 0:
+            continue
+        width = np.array([score.scale / size]) + 1e-300
+        alone = _alone_from(h, term, model, obs, settings, start=np.zeros(1), width=width)
+        if alone is not None and (best_score is None or _alone_score(alone.log_likelihood, 1, samples) > best_score):
+            best, best_score = alone, _alone_score(alone.log_likelihood, 1, samples)
+    if best is None:
+        log.info("%s: no one-term form refines on the channels either, not fitted", h.key)
+        return candidate
+    refined = best.refined
+    _, smoothed = channel_tests(best.corrected, best.placed, settings)
+    candidate.states = smoothed.mean[..., :8]
+    candidate.features, candidate.coefficients = [best.term], refined.coefficients
+    candidate.samples = rng.multivariate_normal(
+        refined.coefficients, refined.covariance, size=settings.bootstrap, method="eigh"
+    )
+    candidate.corrected, candidate.placed = best.corrected, best.placed
+    candidate.tests_after, candidate.log_likelihood = best.tests, best.log_likelihood
+    candidate.explained = explained_share(tests, best.tests, [t.channel for t in tests if t.flagged])
+    log.info(
+        "%s: fitted on the channels instead, %s %.4g, log-likelihood %.1f", h.key, best.term.name,
+        refined.coefficients[0], np.sum(best.log_likelihood),
+    )  # fmt: skip
+    return candidate
 
 
 def _cut(candidate: SparseCandidate, budget: int, model: CellModel, settings: DiscoverySettings) -> np.ndarray:
@@ -704,7 +761,10 @@ def _fit_screened(
     rich: bool, first: bool,
 ) -> SparseCandidate:  # fmt: skip
     """One screened hypothesis fitted (:func:`_fit`) with the round's seed and channel tests."""
-    return _fit(score, model, obs=obs, settings=settings, seed=screen.seed, rich=rich, tests=screen.tests, first=first)
+    return _fit(
+        score, model, obs=obs, settings=settings, seed=screen.seed, rich=rich, tests=screen.tests, first=first,
+        states=screen.states,
+    )  # fmt: skip
 
 
 def decide_round(
