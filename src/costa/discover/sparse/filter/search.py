@@ -441,14 +441,9 @@ def _one_term_if_better(
             best, best_score = alone, _alone_score(alone.log_likelihood, 1, samples)
     if best is None:
         return
-    term, refined = best.term, best.refined
-    log.info("%s: %s alone, %.4g, scores better than %s", h.key, term.name, refined.coefficients[0], candidate.formula)
-    candidate.features, candidate.coefficients = [term], refined.coefficients
-    candidate.samples = rng.multivariate_normal(
-        refined.coefficients, refined.covariance, size=len(candidate.samples), method="eigh"
-    )
-    candidate.corrected, candidate.placed = best.corrected, best.placed
-    candidate.tests_after, candidate.log_likelihood = best.tests, best.log_likelihood
+    coefficient = best.refined.coefficients[0]
+    log.info("%s: %s alone, %.4g, scores better than %s", h.key, best.term.name, coefficient, candidate.formula)
+    best.given_to(candidate, rng)
 
 
 def _alone_score(likelihood: np.ndarray, terms: int, samples: int) -> tuple[int, float]:
@@ -483,6 +478,16 @@ class _Alone(NamedTuple):
     placed: Observations
     tests: list[ChannelTest]
     log_likelihood: np.ndarray
+
+    def given_to(self, candidate: SparseCandidate, rng) -> None:
+        """Make this term ``candidate``'s closed form, with as many samples of its posterior as it had."""
+        coefficients, covariance = self.refined
+        candidate.features, candidate.coefficients = [self.term], coefficients
+        candidate.samples = rng.multivariate_normal(
+            coefficients, covariance, size=len(candidate.samples), method="eigh"
+        )
+        candidate.corrected, candidate.placed = self.corrected, self.placed
+        candidate.tests_after, candidate.log_likelihood = self.tests, self.log_likelihood
 
 
 def _refined_alone(
@@ -551,19 +556,13 @@ def _fitted_on_channels(
     if best is None:
         log.info("%s: no one-term form refines on the channels either, not fitted", h.key)
         return candidate
-    refined = best.refined
+    best.given_to(candidate, rng)
     _, smoothed = channel_tests(best.corrected, best.placed, settings)
     candidate.states = smoothed.mean[..., :8]
-    candidate.features, candidate.coefficients = [best.term], refined.coefficients
-    candidate.samples = rng.multivariate_normal(
-        refined.coefficients, refined.covariance, size=settings.bootstrap, method="eigh"
-    )
-    candidate.corrected, candidate.placed = best.corrected, best.placed
-    candidate.tests_after, candidate.log_likelihood = best.tests, best.log_likelihood
     candidate.explained = explained_share(tests, best.tests, [t.channel for t in tests if t.flagged])
     log.info(
         "%s: fitted on the channels instead, %s %.4g, log-likelihood %.1f", h.key, best.term.name,
-        refined.coefficients[0], np.sum(best.log_likelihood),
+        best.refined.coefficients[0], np.sum(best.log_likelihood),
     )  # fmt: skip
     return candidate
 
