@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
@@ -432,13 +432,12 @@ def _one_term_if_better(
     constant bath-ledge transfer)."""
     h = candidate.score.hypothesis
     samples = int(np.isfinite(obs.y).sum())
-    best, best_score = None, _alone_score(candidate.log_likelihood, len(candidate.features), samples)
-    for term in _single_terms(h, rich):
-        if [f.name for f in candidate.features] == [term.name]:
-            continue
-        alone = _refined_alone(h, term, model, obs, settings, smoothed=smoothed)
-        if alone is not None and _alone_score(alone.log_likelihood, 1, samples) >= best_score:
-            best, best_score = alone, _alone_score(alone.log_likelihood, 1, samples)
+    alone = (
+        _refined_alone(h, term, model, obs, settings, smoothed=smoothed)
+        for term in _single_terms(h, rich)
+        if [f.name for f in candidate.features] != [term.name]
+    )
+    best = _highest_scoring(alone, samples, _alone_score(candidate.log_likelihood, len(candidate.features), samples))
     if best is None:
         return
     coefficient = best.refined.coefficients[0]
@@ -451,6 +450,16 @@ def _alone_score(likelihood: np.ndarray, terms: int, samples: int) -> tuple[int,
     2 log-likelihood (per trajectory, (n,)) - ``terms`` x ln(``samples``) on those."""
     held = np.isfinite(likelihood)
     return int(held.sum()), 2 * float(likelihood[held].sum()) - terms * np.log(max(samples, 2))
+
+
+def _highest_scoring(alone: Iterable[_Alone | None], samples: int, floor: tuple[int, float] | None) -> _Alone | None:
+    """Of terms refined ``alone`` (None: the refinement failed), the last that scores highest by
+    :func:`_alone_score` on ``samples`` measured values, at least ``floor`` (None: any); None where none does."""
+    best, best_score = None, floor
+    for a in alone:
+        if a is not None and (best_score is None or _alone_score(a.log_likelihood, 1, samples) >= best_score):
+            best, best_score = a, _alone_score(a.log_likelihood, 1, samples)
+    return best
 
 
 def _single_terms(h: Hypothesis, rich: bool) -> list[Feature]:
@@ -543,16 +552,16 @@ def _fitted_on_channels(
         inclusion=None,
     )  # fmt: skip
     u = obs.u[:, ::16]  # the states' steps
-    samples = int(np.isfinite(obs.y).sum())
-    best, best_score = None, None
-    for term in _single_terms(h, rich) or [f for f in h.features(rich) if f.name == "1"]:
+
+    def from_zero(term: Feature) -> _Alone | None:
         size = float(np.nanmean(np.abs(_feature_values(h, model, [term], states, u))))
         if not np.isfinite(size) or size <= 0:
-            continue
+            return None
         width = np.array([score.scale / size]) + 1e-300
-        alone = _alone_from(h, term, model, obs, settings, start=np.zeros(1), width=width)
-        if alone is not None and (best_score is None or _alone_score(alone.log_likelihood, 1, samples) > best_score):
-            best, best_score = alone, _alone_score(alone.log_likelihood, 1, samples)
+        return _alone_from(h, term, model, obs, settings, start=np.zeros(1), width=width)
+
+    terms = _single_terms(h, rich) or [f for f in h.features(rich) if f.name == "1"]
+    best = _highest_scoring(map(from_zero, terms), int(np.isfinite(obs.y).sum()), None)
     if best is None:
         log.info("%s: no one-term form refines on the channels either, not fitted", h.key)
         return candidate
