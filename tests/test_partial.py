@@ -1000,3 +1000,30 @@ def test_a_hypothesis_whose_free_delta_is_lost_on_half_the_cells_is_fitted_on_th
     monkeypatch.setattr(search, "refine_coefficients", lambda *args, **kwargs: None)
     unfitted = search._fit(score, model, obs, settings, 0, False, tests, first=True, states=states)
     assert unfitted.features == [] and unfitted.corrected is None and unfitted.samples.shape == (settings.bootstrap, 0)
+
+
+def test_a_hypothesis_whose_free_delta_loses_the_screens_filter_is_scored_on_the_channels():
+    """AlF3 lost at a constant 0.03 kg/s on two cells, and the flow's free delta screened minus infinity
+    (its filter lost, as on a pot line's one screened cell): its constant, refined from zero on the
+    channels, scores it, above a rival's 5 units, with the gain the refined form's filter gives; a
+    hypothesis that scored keeps its score; where the uncorrected filter lost a cell, nothing is scored."""
+    from costa.discover.sparse.filter import search
+    from costa.discover.sparse.rounds import HypothesisScore, channel_tests, likelihood_gains
+
+    model, term, obs = _hidden_constant("term:alf3_mass", -0.03, cells=2, stream="screen lost")
+    settings = settings_from_config(load_config())
+    _, base = channel_tests(model, obs, settings)
+    states = base.mean[:, ::16, :8]
+    (scale,) = hypothesis_scales(model, [term], obs, settings.window, base.mean[..., :8])
+    (rival,) = [h for h in candidate_hypotheses(model) if h.key == "input:u3"]
+    screened = [
+        HypothesisScore(hypothesis=rival, scale=1.0, walk=0.0, log_likelihood_gain=5.0),
+        HypothesisScore(hypothesis=term, scale=float(scale), walk=0.0, log_likelihood_gain=-np.inf),
+    ]
+    scored = search._lost_scored_on_channels(screened, model, obs, settings, base=base.log_likelihood, states=states)
+    assert [s.hypothesis.key for s in scored] == ["term:alf3_mass", "input:u3"] and scored[1] == screened[0]
+    best = search._best_from_zero(screened[1], model, obs, settings, states=states, rich=False)
+    (gain,), _ = likelihood_gains(best.log_likelihood[None], base.log_likelihood)
+    assert scored[0].log_likelihood_gain == pytest.approx(gain) and gain > 5
+    lost_base = np.where(np.arange(2) == 0, -np.inf, base.log_likelihood)
+    assert search._lost_scored_on_channels(screened, model, obs, settings, base=lost_base, states=states) == screened
