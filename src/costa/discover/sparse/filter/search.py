@@ -5,7 +5,8 @@ One round on the current model:
 1. the smoother's innovations of every measured channel are tested for variance, bias
    and whiteness (:func:`..estimator.innovation_tests`); nothing flagged -> stop;
 2. every hypothesis gets a random-walk delta(t) in the smoother and is scored, on a few
-   trajectories, by the log-likelihood it gains (:func:`.likelihood.score_hypotheses`);
+   trajectories, by the log-likelihood it gains (:func:`.likelihood.score_hypotheses`; one whose
+   delta's filter is lost there, by its one-term form refined on them, :func:`_lost_scored_on_channels`);
    the best ``partial_candidates`` go on, one of each group of the same physics
    (:func:`distinct_physics`);
 3. each of those is smoothed on all trajectories (one whose filter is lost on half of
@@ -704,8 +705,9 @@ def screen_round(
         "screened %d hypotheses on %d trajectories in %.1f s; the best: %s", len(screened), len(few.y),
         time.perf_counter() - started, ", ".join(f"{s.hypothesis.key} {s.log_likelihood_gain:.4g}" for s in screened[:12]),
     )  # fmt: skip
-    screened = _lost_scored_on_channels(screened, model, few, settings, base=base.log_likelihood[screen],
-                                        states=few_states[:, ::16, :8])  # fmt: skip
+    screened = _lost_scored_on_channels(
+        screened, model, few, settings, base=base.log_likelihood[screen], states=few_states[:, ::16, :8]
+    )
     seed = int(rng.integers(2**63))
     screen_x, screen_u = (a[:, ::16].reshape(-1, a.shape[-1]) for a in (few_states, few.u))
     candidates = distinct_physics(best_screened(screened, settings), model, screen_x, screen_u, named)
@@ -732,8 +734,8 @@ def _lost_scored_on_channels(
     for s in lost:
         best = _best_from_zero(s, model, few, settings, states=states, rich=False)
         if best is not None:
-            (gain,), (held,) = likelihood_gains(best.log_likelihood[None], base)
-            scored[s.hypothesis.key] = replace(s, log_likelihood_gain=float(gain), rescued=int(held))
+            (gain,), _ = likelihood_gains(best.log_likelihood[None], base)
+            scored[s.hypothesis.key] = replace(s, log_likelihood_gain=float(gain))
     log.info(
         "%d hypotheses lost the screen's filter; scored on the channels in %.1f s: %s", len(lost),
         time.perf_counter() - started, ", ".join(f"{k} {v.log_likelihood_gain:.4g}" for k, v in scored.items()),
