@@ -10,6 +10,7 @@ hypothesis by the likelihood its random-walk delta gains, the shooting route
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,8 +28,8 @@ from .observations import Observations
 from .observed import estimate_states
 
 __all__ = [
-    "BudgetComparison", "HypothesisScore", "SparseCandidate", "SparseRound", "channel_tests", "likelihood_gains",
-    "round_tests",
+    "BudgetComparison", "HypothesisScore", "SparseCandidate", "SparseRound", "best_first", "channel_tests",
+    "likelihood_gains", "round_tests",
 ]  # fmt: skip
 
 
@@ -51,6 +52,11 @@ class HypothesisScore:
     @property
     def rank_key(self) -> tuple[int, float]:
         return self.rescued, self.log_likelihood_gain
+
+
+def best_first(scores: Iterable[HypothesisScore]) -> list[HypothesisScore]:
+    """``scores`` ranked by (trajectories rescued, gain), best first; ties keep their order."""
+    return sorted(scores, key=lambda s: tuple(-k for k in s.rank_key))
 
 
 @dataclass

@@ -30,7 +30,7 @@ from ...core.hypotheses import Hypothesis
 from ...core.library import Feature
 from ..observations import Observations
 from ..observed import PROCESS_STD
-from ..rounds import HypothesisScore, likelihood_gains
+from ..rounds import HypothesisScore, best_first, likelihood_gains
 
 __all__ = [
     "hypothesis_scales",
@@ -188,7 +188,7 @@ def score_hypotheses(
         dataclasses.replace(score, smoothing_walk=moving[j].walk if j in moving else score.walk)
         for j, score in best.items()
     ]
-    return sorted(scores, key=lambda s: tuple(-k for k in s.rank_key)), scales
+    return best_first(scores), scales
 
 
 def smooth_hypothesis(model: CellModel, score: HypothesisScore, obs: Observations, window: int) -> Smoothed:

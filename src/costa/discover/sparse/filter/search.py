@@ -85,6 +85,7 @@ from ..rounds import (
     HypothesisScore,
     SparseCandidate,
     SparseRound,
+    best_first,
     channel_tests,
     likelihood_gains,
     round_tests,
@@ -741,7 +742,7 @@ def _lost_scored_on_channels(
         time.perf_counter() - started, ", ".join(f"{k} {v.log_likelihood_gain:.4g}" for k, v in scored.items()),
     )  # fmt: skip
     rescored = [scored.get(s.hypothesis.key, s) for s in screened]
-    return sorted(rescored, key=lambda s: tuple(-k for k in s.rank_key))
+    return best_first(rescored)
 
 
 def fit_share(
