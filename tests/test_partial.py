@@ -87,11 +87,23 @@ def test_a_hypothesis_not_fitted_stands_while_its_free_delta_could_explain_as_mu
     other = HypothesisScore(hypothesis=h, scale=1.0, walk=0.0, log_likelihood_gain=free_gain)
     screen = Screen(
         tests=[], log_likelihood=np.array([-500.0, -300.0, -9.0]), states=np.zeros((3, 1, 8)), candidates=[],
-        seed=0, others=[other], screened=2,
+        seed=0, others=[other], screened=np.arange(2),
     )  # fmt: skip
     chosen = SimpleNamespace(log_likelihood=np.array([100.0, 100.0, 1e6]))
     assert could_explain_as_well(chosen, screen, margin=10.0) == ([] if excluded else [h])
     assert could_explain_as_well(chosen, screen, margin=10.0, fitted=[SimpleNamespace(hypothesis=h)]) == []
+
+
+def test_a_round_screens_on_the_first_trajectories_its_uncorrected_filter_holds():
+    """A screen compares each hypothesis with the uncorrected filter: it reads the first trajectories that
+    filter holds (finite log-likelihood), in record order, and lost ones only where too few hold."""
+    from costa.discover.sparse.filter.search import screened_trajectories
+
+    base = np.array([np.nan, -1.0, -2.0, -np.inf, -3.0])
+    assert screened_trajectories(base, 1).tolist() == [1]
+    assert screened_trajectories(base, 3).tolist() == [1, 2, 4]
+    assert screened_trajectories(base, 4).tolist() == [0, 1, 2, 4]
+    assert screened_trajectories(np.array([-5.0, -1.0]), 1).tolist() == [0]
 
 
 @pytest.mark.integration
