@@ -927,8 +927,6 @@ def test_an_input_gain_fitted_as_a_form_of_other_terms_gives_way_to_its_constant
     model, gain, obs = _hidden_constant("input:u1", -0.08, cells=3, stream="gain", channels=("c2", "c3", "x6"))
     settings = settings_from_config(load_config())
     smoothed = SimpleNamespace(mean=np.full(obs.y.shape[:2] + (9,), -0.05))
-    _, base = channel_tests(model, obs, settings)
-    alone_args = dict(smoothed=smoothed, rich=False, rng=np.random.default_rng(0), states=base.mean[:, ::16, :8])
 
     def fitted(h, names, coefficients):
         features = [f for name in names for f in h.features(False) if f.name == name]
@@ -936,23 +934,22 @@ def test_an_input_gain_fitted_as_a_form_of_other_terms_gives_way_to_its_constant
         placed = obs.searched_again(corrected)
         tests, after = channel_tests(corrected, placed, settings, backward=False)
         return SparseCandidate(
-            score=SimpleNamespace(hypothesis=h, scale=hypothesis_scales(model, [h], obs, settings.window, base.mean[..., :8])[0]),
-            states=np.zeros(0), features=features,
+            score=SimpleNamespace(hypothesis=h), states=np.zeros(0), features=features,
             coefficients=np.array(coefficients), samples=np.zeros((4, len(features))), inclusion={},
             corrected=corrected, tests_after=tests, log_likelihood=after.log_likelihood, placed=placed,
         )  # fmt: skip
 
     form = fitted(gain, ["1", "(x6 - 970)"], [-0.02, 0.3])
-    _one_term_if_better(form, model, obs, settings, **alone_args)
+    _one_term_if_better(form, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
     assert [f.name for f in form.features] == ["1"]
     assert form.samples.shape == (4, 1) and np.isfinite(form.log_likelihood).all()
     assert abs(form.coefficients[0] + 0.08) < 0.01
     alone = fitted(gain, ["(x6 - 970)"], [0.3])
-    _one_term_if_better(alone, model, obs, settings, **alone_args)
+    _one_term_if_better(alone, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
     assert [f.name for f in alone.features] == ["1"] and abs(alone.coefficients[0] + 0.08) < 0.01
     (term,) = [h for h in candidate_hypotheses(model) if h.key == "term:alf3_mass"]
     flow = fitted(term, ["1", "(x6 - 970)"], [-0.001, 1e-5])
-    _one_term_if_better(flow, model, obs, settings, **alone_args)
+    _one_term_if_better(flow, model, obs, settings, smoothed=smoothed, rich=False, rng=np.random.default_rng(0))
     assert [f.name for f in flow.features] == ["1", "(x6 - 970)"]
 
 
