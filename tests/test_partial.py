@@ -1014,35 +1014,6 @@ def test_a_hypothesis_whose_free_delta_is_lost_on_half_the_cells_is_fitted_on_th
     assert unfitted.features == [] and unfitted.corrected is None and unfitted.samples.shape == (settings.bootstrap, 0)
 
 
-def test_a_closed_form_whose_filter_is_lost_competes_with_its_one_term_forms_from_zero():
-    """AlF3 lost at a constant 0.03 kg/s on two cells; the flow's closed form (a constant at zero) given a filter
-    lost on one cell: its constant refined from zero on the channels replaces it, near the truth, holding both
-    cells.  A flow's form whose filter holds keeps its form (a flow has no one-term rule of its own)."""
-    from costa.discover.sparse.filter import search
-    from costa.discover.sparse.rounds import HypothesisScore, SparseCandidate, channel_tests
-
-    model, term, obs = _hidden_constant("term:alf3_mass", -0.03, cells=2, stream="screen lost")
-    settings = settings_from_config(load_config())
-    _, base = channel_tests(model, obs, settings)
-    states = base.mean[:, ::16, :8]
-    (scale,) = hypothesis_scales(model, [term], obs, settings.window, base.mean[..., :8])
-    constant = [f for f in term.features(False) if f.name == "1"]
-
-    def candidate(log_likelihood):
-        return SparseCandidate(
-            score=HypothesisScore(hypothesis=term, scale=float(scale), walk=0.0, log_likelihood_gain=1.0),
-            states=states, features=constant, coefficients=np.zeros(1), samples=np.zeros((10, 1)), inclusion=None,
-            log_likelihood=np.asarray(log_likelihood, float),
-        )  # fmt: skip
-
-    lost = candidate([-np.inf, 0.0])
-    search._one_term_if_better(lost, model, obs, settings, smoothed=base, rich=False, rng=np.random.default_rng(0), states=states)  # fmt: skip
-    assert lost.coefficients[0] == pytest.approx(-0.03, rel=0.1) and np.isfinite(lost.log_likelihood).all()
-    held = candidate([0.0, 0.0])
-    search._one_term_if_better(held, model, obs, settings, smoothed=base, rich=False, rng=np.random.default_rng(0), states=states)  # fmt: skip
-    assert held.coefficients[0] == 0.0 and held.log_likelihood.tolist() == [0.0, 0.0]
-
-
 def test_a_hypothesis_whose_free_delta_loses_the_screens_filter_is_scored_on_the_channels():
     """AlF3 lost at a constant 0.03 kg/s on two cells, and the flow's free delta screened minus infinity
     (its filter lost, as on a pot line's one screened cell): its constant, refined from zero on the

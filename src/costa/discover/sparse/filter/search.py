@@ -15,10 +15,9 @@ One round on the current model:
    channels, :func:`_fitted_on_channels`), its delta(t) regressed on the physical
    terms (:mod:`...core.library`) evaluated at the smoothed states, window by window, with one
    bootstrap over blocks of trajectories for selection and intervals (a term is kept
-   only if its :data:`...core.fitted_terms.KEEP_LEVEL` interval excludes zero; in the first round one
-   term alone where better, :func:`_one_term_if_better`), and the corrected model scored by the BIC
-   gain of its own likelihood of the measured channels, as the full-data route scores a correction by
-   its exact residual;
+   only if its :data:`...core.fitted_terms.KEEP_LEVEL` interval excludes zero), and the corrected
+   model scored by the BIC gain of its own likelihood of the measured channels, as the
+   full-data route scores a correction by its exact residual;
 4. corrections within ``equivalence`` BIC of the best explain the measured channels
    equally well (the window widened by the best correction's remaining misfit,
    :func:`_dispersion`: where even the best leaves the innovations far from white, BIC
@@ -407,7 +406,7 @@ def _fit(
     tests_after, after = channel_tests(corrected, candidate.placed, settings, backward=False)
     candidate.corrected, candidate.tests_after, candidate.log_likelihood = corrected, tests_after, after.log_likelihood
     if first:
-        _one_term_if_better(candidate, model, obs, settings, smoothed=smoothed, rich=rich, rng=rng, states=states)
+        _one_term_if_better(candidate, model, obs, settings, smoothed=smoothed, rich=rich, rng=rng)
     flagged = [t.channel for t in tests if t.flagged]
     candidate.explained = explained_share(tests, candidate.tests_after, flagged)
     log.info(
@@ -419,7 +418,7 @@ def _fit(
 
 def _one_term_if_better(
     candidate: SparseCandidate, model: CellModel, obs: Observations, settings: DiscoverySettings, *,
-    smoothed: Smoothed, rich: bool, rng, states: np.ndarray,
+    smoothed: Smoothed, rich: bool, rng,
 ) -> None:  # fmt: skip
     """Replace the candidate's closed form by one term (:func:`_single_terms`, each refined alone on the
     measured channels until it converges), where the best of them scores better by the round's own
@@ -433,21 +432,14 @@ def _one_term_if_better(
     x6 and c3 beyond noise, where own (c3 - 0.11) refined alone reaches -3.4 and leaves every channel
     within noise.  The first round only: in a later round a constant flow stands in for what is left
     of an earlier round's closed form (the liquidus law named from partial records lost its name to a
-    constant bath-ledge transfer).  Where the closed form's filter is lost on a trajectory, its one-term forms
-    refined from zero (:func:`_best_from_zero`, a flow's constant among them; sized on the uncorrected model's
-    ``states``) compete too: a lost filter excludes nothing (dev pot_line 8: a constant alumina flow, its
-    11-term form lost on a cell, the current efficiency's constant applied in its place, x5 left beyond noise)."""
+    constant bath-ledge transfer)."""
     h = candidate.score.hypothesis
     samples = int(np.isfinite(obs.y).sum())
-    alone = [
+    alone = (
         _refined_alone(h, term, model, obs, settings, smoothed=smoothed)
         for term in _single_terms(h, rich)
         if [f.name for f in candidate.features] != [term.name]
-    ]
-    if not np.isfinite(candidate.log_likelihood).all():
-        lost = int((~np.isfinite(candidate.log_likelihood)).sum())
-        log.info("%s: its closed form's filter is lost on %d trajectories; refined from zero too", h.key, lost)
-        alone.append(_best_from_zero(candidate.score, model, obs, settings, states=states, rich=rich))
+    )
     best = _highest_scoring(alone, samples, _alone_score(candidate.log_likelihood, len(candidate.features), samples))
     if best is None:
         return
