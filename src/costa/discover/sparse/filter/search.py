@@ -723,8 +723,8 @@ def screen_round(
 def screened_trajectories(base: np.ndarray, n: int) -> np.ndarray:
     """The ``n`` trajectories a round screens its hypotheses on: the first whose uncorrected filter holds (its
     log-likelihood ``base`` (trajectories,) finite), then the first lost ones where too few hold.  A screen is a
-    comparison with the uncorrected filter, and a lost one compares nothing (dev pot_line 21: the one screened
-    cell lost, a strong AlF3 flow unexplained)."""
+    comparison with the uncorrected filter, and a lost one compares nothing (dev pot_line 21: its one screened
+    cell lost, each hypothesis was compared there with the best of them, not with the model)."""
     held_first = np.argsort(~np.isfinite(base), kind="stable")
     return np.sort(held_first[:n])
 
