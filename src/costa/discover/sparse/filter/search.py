@@ -692,8 +692,8 @@ def screen_round(
             tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=[], seed=0, left_out=left_out,
             lost=lost,
         )  # fmt: skip
-    screen = screened_trajectories(base.log_likelihood, max(1, settings.screen_steps // obs.y.shape[1]))
-    few, few_states = obs.subset(screen), base.mean[screen]
+    rows = screened_trajectories(base.log_likelihood, max(1, settings.screen_steps // obs.y.shape[1]))
+    few, few_states = obs.subset(rows), base.mean[rows]
     started = time.perf_counter()
     screened, _ = score_hypotheses(
         model,
@@ -704,11 +704,11 @@ def screen_round(
         walks=settings.walks,
     )
     log.info(
-        "screened %d hypotheses on trajectories %s in %.1f s; the best: %s", len(screened), screen.tolist(),
+        "screened %d hypotheses on trajectories %s in %.1f s; the best: %s", len(screened), rows.tolist(),
         time.perf_counter() - started, ", ".join(f"{s.hypothesis.key} {s.log_likelihood_gain:.4g}" for s in screened[:12]),
     )  # fmt: skip
     screened = _lost_scored_on_channels(
-        screened, model, few, settings, base=base.log_likelihood[screen], states=few_states[:, ::16, :8]
+        screened, model, few, settings, base=base.log_likelihood[rows], states=few_states[:, ::16, :8]
     )
     seed = int(rng.integers(2**63))
     screen_x, screen_u = (a[:, ::16].reshape(-1, a.shape[-1]) for a in (few_states, few.u))
@@ -716,7 +716,7 @@ def screen_round(
     candidates += chained(candidates, screened, model, screen_x, screen_u)
     return Screen(
         tests=tests, log_likelihood=base.log_likelihood, states=states, candidates=candidates, seed=seed,
-        others=other_physics(screened, candidates, model, screen_x, screen_u), screened=screen, lost=lost,
+        others=other_physics(screened, candidates, model, screen_x, screen_u), screened=rows, lost=lost,
     )  # fmt: skip
 
 
