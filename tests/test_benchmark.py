@@ -19,6 +19,7 @@ from costa.benchmark.score import (
     wilson,
 )
 from costa.benchmark.signal import signal
+from costa.benchmark.truth_listed import listed_rates, recommending_rounds
 from costa.compiled import CompiledModel
 from costa.config import ConfigError, check_consistency
 from costa.discover.cases.drawn import (
@@ -34,7 +35,7 @@ from costa.discover.cases.drawn import (
     split_cases,
 )
 from costa.discover.cases.unshipped import find_case
-from costa.discover.rates import PUBLISHED, how_often_right
+from costa.discover.rates import LISTED, PUBLISHED, how_often_right, truth_listed
 from costa.discover.summary import judged
 from costa.integrate import rk4_step
 from costa.physics import operating_points, true_model
@@ -216,6 +217,51 @@ def test_a_findings_page_quotes_the_published_test_rates_of_records_sampled_alik
     assert how_often_right("full", published) == [] and how_often_right("full", tmp_path / "none.csv") == []
 
 
+def _recommending(case: str, accepted: list[str], verdicts_and_explanations) -> dict:
+    """A run's findings as the truth-listed count reads them: each round's verdict and its first recommendation's
+    explanations (a round without any recommended nothing)."""
+    rounds = [
+        {"round": i + 1, "verdict": verdict, "measure_next": [{"explanations": keys}] if keys else []}
+        for i, (verdict, keys) in enumerate(verdicts_and_explanations)
+    ]
+    return {"case": case, "accepted": accepted, "rounds": rounds}
+
+
+def test_the_truth_is_counted_among_a_recommendations_explanations_per_set_and_outcome(tmp_path):
+    """Three unexplained rounds, one holding an accepted name, and a null case's flagged round (whose truth,
+    nothing, no explanation holds); two not identifiable, both holding it; a round without a recommendation
+    is not counted.  The shares and their Wilson intervals are what a findings page reads back."""
+    runs = [
+        _recommending("drawn1/plant", ["part:a", "part:b"], [("unexplained: ...", ["part:c", "part:b"])]),
+        _recommending(
+            "drawn2/plant", ["part:a"], [("unexplained: ...", ["part:c"]), ("not identifiable: x", ["part:a"])]
+        ),
+        _recommending("drawn3/plant", [], [("unexplained: ...", ["part:a"])]),
+        _recommending("drawn4/plant", ["term:x"], [("not identifiable: y", ["term:x", "part:c"]), ("quiet", [])]),
+    ]
+    rows = pd.DataFrame([row for found in runs for row in recommending_rounds(found, "plant")])
+    assert len(rows) == 5 and rows.listed.tolist() == [True, False, True, False, True]
+    table = listed_rates(rows).set_index("outcome")
+    assert table.loc["unexplained", ["rounds", "listed"]].tolist() == [3, 1]
+    assert table.loc["not identifiable", ["rounds", "listed", "share"]].tolist() == [2, 2, 1.0]
+    assert table.loc["unexplained", ["share_low", "share_high"]].tolist() == pytest.approx(wilson(1, 3))
+    published = tmp_path / "truth_listed.csv"
+    listed_rates(rows).assign(split="dev", size="quick").to_csv(published, index=False)
+    row = truth_listed("plant", "unexplained", published)
+    assert (row["rounds"], row["listed"], row["split"]) == (3, 1, "dev") and isinstance(row["rounds"], int)
+    assert truth_listed("partial", "unexplained", published) is None
+    assert truth_listed("plant", "unexplained", tmp_path / "none.csv") is None
+
+
+def test_the_published_truth_listed_shares_are_a_dev_run():
+    """The shares that calibrate a recommendation's chance of a right name (costa/discover/truth_listed.csv)
+    come from dev seeds, so the closed loop on the test seeds judges them; each a count of rounds."""
+    published = pd.read_csv(LISTED)
+    assert (published.split == "dev").all() and set(published.outcome) <= {"unexplained", "not identifiable"}
+    assert (published.listed <= published.rounds).all() and (published.rounds > 0).all()
+    assert np.allclose(published.share, published.listed / published.rounds)
+
+
 def test_a_benchmark_size_naming_an_unknown_sensor_set_is_refused(default_config):
     config = {
         **default_config,
@@ -260,6 +306,8 @@ def test_the_benchmark_runs_end_to_end_at_the_smoke_sizes(tmp_path):
     page = (results / "benchmark.md").read_text()
     assert "| full | 3 (" in page and "## Against its peers" in page and "by kind" in page
     assert set(pd.read_csv(results / "strong_by_kind.csv").columns) >= {"kind", "effects", "right", "missed", "recall"}
+    # full-state rounds recommend no measurement: the count has its columns and no rows
+    assert pd.read_csv(results / "truth_listed.csv").columns.tolist()[:4] == ["sensors", "outcome", "rounds", "listed"]
     assert (results / "recall_by_signal.png").stat().st_size > 10_000
 
 

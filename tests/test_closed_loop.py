@@ -37,7 +37,7 @@ def _findings(named=(), outcome="not identifiable", gains=None, recommended=()):
 
 
 RECOMMENDED = {"channel": "x5", "every_s": 28800, "noise": 15, "separation_noise_stds": 9.0, "rival": "part:b",
-               "name_probability": 0.8}  # fmt: skip
+               "name_probability": 0.8, "right_name_probability": 0.4}  # fmt: skip
 
 
 def test_the_loop_adds_the_first_recommendation_of_a_run_without_a_name():
@@ -75,10 +75,11 @@ def test_the_loop_counts_the_right_names_it_gained_against_those_it_predicted():
     summary = loop_summary(table).iloc[0]
     assert (summary.undecided, summary.measurement_added, summary.names_given) == (3, 2, 2)
     assert (summary.right_gained, summary.wrong_gained, summary.names_predicted) == (1, 1, pytest.approx(1.6))
+    assert summary.right_predicted == pytest.approx(0.8)
     assert summary.median_achieved_separation == pytest.approx(10.0)  # both moved the difference by 100
     page = loop_markdown(loop_summary(table), table, "test")
     assert (
-        "| partial | 3 | 2 | 1.6 / 2 | 1 [" in page
+        "| partial | 3 | 2 | 1.6 / 2 | 0.8 / 1 [" in page
         and "| drawn3 | partial | not identifiable, truth listed | nothing" in page
     )
 

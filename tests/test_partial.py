@@ -182,6 +182,33 @@ def test_a_case_built_to_be_unidentifiable_names_nothing_and_says_what_would_sep
     assert {"term:cryolite_mass", "transfer:cryolite_mass->metal_mass"} <= keys
     assert found.separated_by == "x5"
     assert found.chosen.explained > 0.95 and abs(abs(found.chosen.coefficients[0]) - 0.01) < 1e-4
+    assert {"term:cryolite_mass", "transfer:cryolite_mass->metal_mass"} <= set(found.measure_next[0].explanations)
+
+
+def test_a_recommendations_chance_of_a_right_name_is_its_chance_times_how_often_the_truth_was_listed(monkeypatch):
+    """The findings multiply each recommendation's chance of a name by the share of the benchmark's dev rounds
+    of records sampled alike, and of the same outcome, whose explanations held the truth; where none was
+    published they say the chance holds only if one of them is the truth."""
+    from costa.discover import findings as page
+    from costa.discover.sparse.measure_next import Recommendation
+
+    recommended = Recommendation("x5", 28800.0, 15.0, 9.0, "part:a", "part:b", 0.8, ("part:a", "part:b", "term:c"))
+    found = SimpleNamespace(verdict="not identifiable: part:a, part:b fit alike", measure_next=[recommended])
+    counted = {"sensors": "plant", "outcome": "not identifiable", "rounds": 8, "listed": 2, "share": 0.25,
+               "share_low": 0.07, "share_high": 0.59, "split": "dev", "size": "calibration"}  # fmt: skip
+    asked = []
+    monkeypatch.setattr(page, "truth_listed", lambda records, outcome: asked.append((records, outcome)) or counted)
+    (entry,) = page._recommendations(found, "plant")
+    assert asked == [("plant", "not identifiable")] and entry["explanations"] == ["part:a", "part:b", "term:c"]
+    assert entry["right_name_probability"] == pytest.approx(0.2) and entry["truth_listed"] == counted
+    text = "\n".join(page._measure_next_lines({"verdict": found.verdict, "measure_next": [entry]}))
+    assert "it was in 2 of 8 not identifiable rounds" in text and "a right name 0.20" in text
+    monkeypatch.setattr(page, "truth_listed", lambda records, outcome: None)
+    (entry,) = page._recommendations(found, "regimes")
+    assert entry["right_name_probability"] is None
+    text = "\n".join(page._measure_next_lines({"verdict": "", "measure_next": [entry], "flagged": ["x6"]}))
+    assert "published no such rounds" in text and "a right name" not in text
+    assert "nothing to recommend" in page._measure_next_lines({"measure_next": [], "flagged": ["x6"], "named": None})[1]
 
 
 @pytest.mark.integration  # a minute of CPU: the candidates fitted twice

@@ -39,6 +39,7 @@ rule collect_benchmark:
         rates=out("benchmark/rates.csv"),
         curve=out("benchmark/recall_by_signal.csv"),
         by_kind=out("benchmark/strong_by_kind.csv"),
+        truth_listed=out("benchmark/truth_listed.csv"),
         peers=out("benchmark/peers.csv"),
         figure=report(
             out("benchmark/recall_by_signal.png"),

@@ -3,7 +3,8 @@
 A case whose findings end without a name gets its first round's top recommendation added to its
 record (:func:`top_recommendation`) and is discovered again.  Each recommendation predicted two
 numbers (:mod:`costa.discover.sparse.measure_next`): the separation of the best explanation from its
-nearest rival, in noise stds, and the chance the added record names one.  :func:`loop_row` sets them
+nearest rival, in noise stds, and the chance the added record names one; and, where the benchmark published
+how often the truth is among the explanations (:mod:`.truth_listed`), the chance of a right name.  :func:`loop_row` sets them
 beside what the run with the added channel achieved: the separation, read from how far the two
 explanations' BIC gains moved apart (sqrt(|change of their BIC difference|), whose mean is the
 predicted d^2 where the prediction holds), and whether a name came and was right.
@@ -58,6 +59,7 @@ def loop_row(
     return row | {
         "added": added["channel"], "every_s": added["every_s"], "rival": added.get("rival"),
         "predicted_separation": added["separation_noise_stds"], "predicted_name": added.get("name_probability"),
+        "predicted_right_name": added.get("right_name_probability"),
         "achieved_separation": achieved_separation(before, after, best, added["rival"]) if best and added.get("rival")
         else float("nan"),
         "after": judged(after), "named_after": " then ".join(after["named"]),
@@ -70,8 +72,8 @@ UNDECIDED = ("unexplained", "not identifiable, truth listed", "not identifiable,
 
 def loop_summary(table: pd.DataFrame) -> pd.DataFrame:
     """Per sensor set: the cases undecided (:data:`UNDECIDED`), those given a measurement, the names predicted
-    (the sum of the chances) and given, right names gained with their Wilson interval, wrong names, and the
-    median predicted and achieved separations."""
+    (the sum of the chances) and given, the right names predicted (nan where a chance is missing) and gained with
+    their Wilson interval, wrong names, and the median predicted and achieved separations."""
     rows = []
     for sensors, group in table.groupby("sensors", sort=False):
         group = group[group.before.isin(UNDECIDED)]
@@ -82,6 +84,7 @@ def loop_summary(table: pd.DataFrame) -> pd.DataFrame:
         rows.append({
             "sensors": sensors, "undecided": len(group), "measurement_added": len(looped),
             "names_predicted": float(looped.predicted_name.sum()) if len(looped) else 0.0, "names_given": len(named),
+            "right_predicted": float(looped.predicted_right_name.sum(min_count=len(looped))) if len(looped) else 0.0,
             "right_gained": right, "right_rate_low": low, "right_rate_high": high,
             "wrong_gained": len(named) - right,
             "median_predicted_separation": float(looped.predicted_separation.median()) if len(looped) else np.nan,
@@ -96,10 +99,11 @@ def loop_markdown(summary: pd.DataFrame, table: pd.DataFrame, split: str) -> str
         f"The closed loop on the `{split}` seeds: each case that found an effect and named nothing (unexplained or "
         "not identifiable), its first round's top "
         "recommendation added to its record and discovered again. Names predicted: the sum of each "
-        "recommendation's chance of a name; separations in noise stds, the best explanation from its nearest "
+        "recommendation's chance of a name (right names: of a right name, that chance times the share of the "
+        "benchmark's dev rounds whose explanations held the truth; nan where none were published); separations in noise stds, the best explanation from its nearest "
         "rival (achieved: from how far their BIC gains moved apart).",
         "",
-        "| sensors | undecided | measurement added | names predicted / given | right gained (95 %) "
+        "| sensors | undecided | measurement added | names predicted / given | right names predicted / gained (95 %) "
         "| wrong gained | separation predicted / achieved (medians) |",
         "|---|---|---|---|---|---|---|",
     ]
@@ -110,7 +114,7 @@ def loop_markdown(summary: pd.DataFrame, table: pd.DataFrame, split: str) -> str
         )  # fmt: skip
         lines.append(
             f"| {r['sensors']} | {r['undecided']} | {r['measurement_added']} | {r['names_predicted']:.1f} / "
-            f"{r['names_given']} | {rate} | {r['wrong_gained']} | {r['median_predicted_separation']:.1f} / "
+            f"{r['names_given']} | {r['right_predicted']:.1f} / {rate} | {r['wrong_gained']} | {r['median_predicted_separation']:.1f} / "
             f"{r['median_achieved_separation']:.1f} |"
         )
     lines += [
@@ -133,5 +137,5 @@ def loop_markdown(summary: pd.DataFrame, table: pd.DataFrame, split: str) -> str
 def loop_table(rows: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
     """The loop's rows as a table (every column present, nothing recommended as NaN)."""
     columns = ["case", "sensors", "before", "added", "every_s", "rival", "predicted_separation", "predicted_name",
-               "achieved_separation", "after", "named_after"]  # fmt: skip
+               "predicted_right_name", "achieved_separation", "after", "named_after"]  # fmt: skip
     return pd.DataFrame(list(rows)).reindex(columns=columns)

@@ -15,7 +15,7 @@ from .core.fitted_terms import KEEP_LEVEL
 from .core.hypotheses import candidate_hypotheses
 from .core.naming import fit_outcome, removal
 from .core.outcome import Outcome, Round
-from .rates import how_often_right
+from .rates import how_often_right, truth_listed
 from .sparse.innovations import LostCell, describe_lost
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
@@ -124,8 +124,32 @@ def _sparse_candidate(c, model) -> dict[str, Any]:
     }
 
 
-def _sparse_round(index: int, r: Round) -> dict[str, Any]:
-    """A round on partial measurements: channel tests instead of equation tests."""
+def _recommendations(r: Round, records: str) -> list[dict[str, Any]]:
+    """A sparse round's recommended measurements, each with its chance of a name and, where the benchmark's dev
+    rounds of ``records`` and of the round's outcome were counted (:func:`.rates.truth_listed`), of a right name."""
+    outcome = "unexplained" if r.verdict.startswith("unexplained") else "not identifiable"
+    listed = truth_listed(records, outcome) if r.measure_next else None
+    return [
+        {
+            "channel": m.channel,
+            "meaning": MEANING[m.channel],
+            "every_s": m.every_s,
+            "noise": m.noise,
+            "separation_noise_stds": round(m.separation, 1),
+            "best": m.best,
+            "rival": m.rival,
+            "name_probability": round(m.decides, 3),
+            "explanations": list(m.explanations),
+            "right_name_probability": round(m.decides * listed["share"], 3) if listed else None,
+            "truth_listed": listed,
+        }  # fmt: skip
+        for m in r.measure_next
+    ]
+
+
+def _sparse_round(index: int, r: Round, records: str) -> dict[str, Any]:
+    """A round on partial measurements: channel tests instead of equation tests; ``records``: the benchmark's
+    sensor set sampled as the data are, whose dev rounds calibrate the chance of a right name."""
     found: dict[str, Any] = {
         "round": index,
         "model": r.model.name,
@@ -163,19 +187,7 @@ def _sparse_round(index: int, r: Round) -> dict[str, Any]:
             for b in r.at_budget
         ],
         "separated_by": r.separated_by,
-        "measure_next": [
-            {
-                "channel": m.channel,
-                "meaning": MEANING[m.channel],
-                "every_s": m.every_s,
-                "noise": m.noise,
-                "separation_noise_stds": round(m.separation, 1),
-                "best": m.best,
-                "rival": m.rival,
-                "name_probability": round(m.decides, 3),
-            }
-            for m in r.measure_next
-        ],
+        "measure_next": _recommendations(r, records),
         "misfit_after_best": round(r.dispersion, 3),
         "named": None,
         "correction": None,
@@ -261,7 +273,9 @@ def findings(
     and may find an explanation it cannot name (``identifiable`` False).
     """
     partial = result.measured == "partial"
-    rounds = [(_sparse_round if partial else _round)(i + 1, r) for i, r in enumerate(result.rounds)]
+    rounds = [
+        _sparse_round(i + 1, r, result.records) if partial else _round(i + 1, r) for i, r in enumerate(result.rounds)
+    ]
     named = [r["named"]["hypothesis"] for r in rounds if r["named"]]
     unidentified = [r for r in rounds if not r["identifiable"] and r["correction"]]
     first = rounds[0]
@@ -535,20 +549,7 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
         lines += ["", "Not excluded by the screen and not fitted (no name stands while they stand):"]
         lines += [f"- `{h['hypothesis']}`: {h['description']}" for h in r["not_fitted"]]
 
-    if r.get("measure_next"):
-        lines += ["", "What to measure next, by the chance the added record names an explanation (and the expected "
-                  "separation of the best from its nearest rival over this record's cells and hours, in noise stds):"]  # fmt: skip
-        if r["verdict"].startswith("unexplained"):  # none of them explains the record: the chance is a bound
-            lines += ["(Unexplained: the chances hold only if one of these explanations is the truth; in the "
-                      "benchmark's closed loop such rounds gained fewer names than predicted.)"]  # fmt: skip
-        lines += [
-            f"- `{m['channel']}` ({m['meaning']}) every {m['every_s']:g} s, noise {m['noise']:g}: "
-            f"a name with probability {m['name_probability']:.2f}; {m['separation_noise_stds']:g} from `{m['rival']}`"
-            for m in r["measure_next"]
-        ]
-    elif r.get("measure_next") == [] and r["flagged"] and not r["named"]:
-        lines += ["", "What to measure next: nothing to recommend; fewer than two explanations were fitted, or no "
-                  "instrument a pot line can add (costa.sensors) samples a channel more often than this record does."]  # fmt: skip
+    lines += _measure_next_lines(r)
     if r.get("at_term_budget"):
         lines += ["", "Against rivals with fewer terms, the correction cut to as many terms (named only if it still "
                   "leads by the equivalence margin):"]  # fmt: skip
@@ -569,3 +570,32 @@ def _sparse_round_lines(r: Mapping[str, Any]) -> list[str]:
             for a in r["alternatives"]
         ]
     return lines + [""]
+
+
+def _measure_next_lines(r: Mapping[str, Any]) -> list[str]:
+    """A sparse round's recommended measurements in words (nothing where it decided, or tested nothing)."""
+    if r.get("measure_next"):
+        lines = ["", "What to measure next, by the chance the added record names an explanation (and the expected "
+                  "separation of the best from its nearest rival over this record's cells and hours, in noise stds):"]  # fmt: skip
+        listed = r["measure_next"][0]["truth_listed"]
+        if listed:
+            lines += [f"(A name's chance holds where one of {', '.join(r['measure_next'][0]['explanations'])} is the "
+                      f"truth: on the benchmark's {listed['sensors']} records of its {listed['split']} seeds it was in "
+                      f"{listed['listed']} of {listed['rounds']} {listed['outcome']} rounds that recommended a "
+                      f"measurement ({listed['share']:.0%}, 95 % interval {listed['share_low']:.0%}-"
+                      f"{listed['share_high']:.0%}); a right name's chance is the product.)"]  # fmt: skip
+        else:
+            lines += ["(A name's chance holds only where one of these explanations is the truth; the benchmark "
+                      "published no such rounds of records like these to say how often it is.)"]  # fmt: skip
+        lines += [
+            f"- `{m['channel']}` ({m['meaning']}) every {m['every_s']:g} s, noise {m['noise']:g}: "
+            f"a name with probability {m['name_probability']:.2f}"
+            + (f", a right name {m['right_name_probability']:.2f}" if listed else "")
+            + f"; {m['separation_noise_stds']:g} from `{m['rival']}`"
+            for m in r["measure_next"]
+        ]
+        return lines
+    if r.get("measure_next") == [] and r["flagged"] and not r["named"]:
+        return ["", "What to measure next: nothing to recommend; fewer than two explanations were fitted, or no "
+                  "instrument a pot line can add (costa.sensors) samples a channel more often than this record does."]  # fmt: skip
+    return []

@@ -44,7 +44,8 @@ __all__ = ["Recommendation", "decides", "measure_next", "sampled_every", "to_sep
 class Recommendation:
     """Measuring ``channel`` every ``every_s`` seconds with noise ``noise`` would separate the
     first explanation, ``best``, from its nearest rival, ``rival`` (hypothesis keys), by ``separation``
-    noise stds, and name one of the explanations with probability ``decides``."""
+    noise stds, and name one of the ``explanations`` (every key compared) with probability ``decides``
+    where one of them is the truth."""
 
     channel: str
     every_s: float
@@ -53,6 +54,7 @@ class Recommendation:
     best: str
     rival: str
     decides: float
+    explanations: tuple[str, ...]
 
     def describe(self) -> str:
         return (
@@ -135,6 +137,7 @@ def measure_next(
             Recommendation(
                 channel=sensor.channel, every_s=sensor.every_s, noise=sensor.noise, separation=float(d[0, nearest]),
                 best=explanations[0][0], rival=explanations[nearest][0], decides=decides(d, margin),
+                explanations=tuple(key for key, _, _ in explanations),
             )
         )  # fmt: skip
     return _undominated(sorted(found, key=lambda r: (-r.decides, -r.separation, -r.every_s)))[:top]
