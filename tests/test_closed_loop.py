@@ -44,6 +44,8 @@ def test_the_loop_adds_the_first_recommendation_of_a_run_without_a_name():
     found = _findings(recommended=[{"channel": "x8", "every_s": 600}, {"channel": "x6", "every_s": 3600}])
     assert top_recommendation(found)["channel"] == "x8"
     assert top_recommendation({**found, "named": ["part:a"]}) is None and top_recommendation(_findings()) is None
+    longer = {"channel": None, "every_s": None, "multiple": 4}  # more of the same: not simulated by the loop
+    assert top_recommendation(_findings(recommended=[longer])) is None
 
 
 def test_the_achieved_separation_is_the_added_records_share_of_the_bic_difference():

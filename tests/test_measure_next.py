@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from costa.discover.sparse.measure_next import decides, measure_next, sampled_every, to_separate
+from costa.discover.sparse.measure_next import (
+    MULTIPLES,
+    decides,
+    measure_next,
+    sampled_every,
+    separating,
+    to_separate,
+)
 from costa.discover.sparse.observations import Observations
 from costa.physics import true_model
 
@@ -58,6 +65,24 @@ def test_a_channel_already_measured_as_often_is_not_recommended(two_explanations
     assert measure_next(explanations[:1], obs, MARGIN) == []
     pot = _obs(u, ("U_pot",), (1,))  # the pot voltage is the cell voltage plus constants
     assert all(r.channel != "U_cell" for r in measure_next(explanations, pot, MARGIN, top=10))
+
+
+def test_where_no_instrument_is_left_to_add_more_of_the_same_record_is_recommended(two_explanations):
+    """A record that dips the metal daily (15 kg noise) and may add nothing: one dip a cell after the filter
+    settles sees the 30 kg difference, d^2 = 2 cells x 2^2 = 8 noise variances, short of the margin; twice the
+    record gives 16, named with probability Phi((16 - 10) / (2 x 4)), the first multiple at a half or more.
+    Explanations the measured channels cannot tell apart get the largest multiple and no chance."""
+    explanations, u = two_explanations
+    daily = Observations(y=_obs(u, ("x5",), (DAY,)).y, u=u, channels=("x5",), noise=np.array([15.0]), dt=10.0)
+    (longer,) = measure_next(explanations, daily, MARGIN, available=())
+    assert (longer.channel, longer.multiple, longer.explanations) == (None, 2, ("first", "second"))
+    assert longer.separation == pytest.approx(4.0) and longer.decides == pytest.approx(norm.cdf(6 / 8))
+    assert longer.describe().startswith("a record 2 times this one")
+    same = [explanations[0], ("twin", *explanations[0][1:])]
+    (never,) = measure_next(same, daily, MARGIN, available=())
+    assert (never.multiple, never.decides, never.rival) == (MULTIPLES[-1], 0.0, "twin")
+    assert separating([longer]).startswith("; measuring a record 2 times this one") and separating([]) == ""
+    assert separating([never]).startswith("; no measurement listed is likely to separate them (the likeliest: a record")
 
 
 def test_one_cell_whose_filter_ran_away_does_not_decide():

@@ -25,10 +25,11 @@ __all__ = ["achieved_separation", "loop_markdown", "loop_row", "loop_summary", "
 
 
 def top_recommendation(found: Mapping[str, Any]) -> dict[str, Any] | None:
-    """The first round's top recommendation where the run ended without a name (None: it named, or recommended
-    nothing); what the record measures as often is never recommended (:func:`..discover.sparse.measure_next`)."""
+    """The first round's top recommendation of an instrument where the run ended without a name (None: it named,
+    recommended nothing, or more of the same record, which the loop does not simulate); what the record measures
+    as often is never recommended (:func:`..discover.sparse.measure_next`)."""
     recommended = found["rounds"][0].get("measure_next", [])
-    return recommended[0] if recommended and not found["named"] else None
+    return recommended[0] if recommended and recommended[0]["channel"] and not found["named"] else None
 
 
 def _gains(found: Mapping[str, Any]) -> dict[str, float]:

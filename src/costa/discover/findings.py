@@ -132,7 +132,8 @@ def _recommendations(r: Round, records: str) -> list[dict[str, Any]]:
     return [
         {
             "channel": m.channel,
-            "meaning": MEANING[m.channel],
+            "meaning": MEANING[m.channel] if m.channel else "the channels this record measures",
+            "multiple": m.multiple,
             "every_s": m.every_s,
             "noise": m.noise,
             "separation_noise_stds": round(m.separation, 1),
@@ -142,7 +143,7 @@ def _recommendations(r: Round, records: str) -> list[dict[str, Any]]:
             "explanations": list(m.explanations),
             "right_name_probability": round(m.decides * listed["share"], 3) if listed else None,
             "truth_listed": listed,
-        }  # fmt: skip
+        }
         for m in r.measure_next
     ]
 
@@ -588,14 +589,18 @@ def _measure_next_lines(r: Mapping[str, Any]) -> list[str]:
             lines += ["(A name's chance holds only where one of these explanations is the truth; the benchmark "
                       "published no such rounds of records like these to say how often it is.)"]  # fmt: skip
         lines += [
-            f"- `{m['channel']}` ({m['meaning']}) every {m['every_s']:g} s, noise {m['noise']:g}: "
-            f"a name with probability {m['name_probability']:.2f}"
+            (
+                f"- a record {m['multiple']} times this one (more cells or hours of {m['meaning']}; no instrument a pot "
+                "line can add samples a channel more often)"
+                if m["channel"] is None
+                else f"- `{m['channel']}` ({m['meaning']}) every {m['every_s']:g} s, noise {m['noise']:g}"
+            )
+            + f": a name with probability {m['name_probability']:.2f}"
             + (f", a right name {m['right_name_probability']:.2f}" if listed else "")
             + f"; {m['separation_noise_stds']:g} from `{m['rival']}`"
             for m in r["measure_next"]
         ]
         return lines
     if r.get("measure_next") == [] and r["flagged"] and not r["named"]:
-        return ["", "What to measure next: nothing to recommend; fewer than two explanations were fitted, or no "
-                  "instrument a pot line can add (costa.sensors) samples a channel more often than this record does."]  # fmt: skip
+        return ["", "What to measure next: nothing to recommend; fewer than two explanations were fitted."]
     return []

@@ -21,6 +21,12 @@ as in the channel tests): before it, the explanations' histories differ by their
 would fit again to the new samples.  A channel already measured as often is left out (a logged pot
 voltage counts as the cell voltage: it is U plus known constants), and so is an instrument no more
 likely to decide than a slower one of the same channel.
+
+Where no instrument is left to add (a record that samples every channel as often as a pot line can),
+the recommendation is more of the same: the smallest multiple of the record (:data:`MULTIPLES`, more
+cells or hours of the channels it measures) whose samples would name one with probability at least a
+half, scored alike on the measured channels (d grows with the square root of the multiple), or the
+largest multiple and its chance, which then says that no practical record of these channels decides.
 """
 
 from __future__ import annotations
@@ -37,30 +43,47 @@ from ...sensors import AVAILABLE, Sensor
 from ...variables import MEANING
 from .observations import Observations
 
-__all__ = ["Recommendation", "decides", "measure_next", "sampled_every", "to_separate"]
+__all__ = ["MULTIPLES", "Recommendation", "decides", "measure_next", "sampled_every", "separating", "to_separate"]
+
+#: the multiples of a record that more of the same is scored at (its cells and hours together)
+MULTIPLES = (2, 4, 8, 16, 32)
 
 
 @dataclass(frozen=True)
 class Recommendation:
-    """Measuring ``channel`` every ``every_s`` seconds with noise ``noise`` would separate the
-    first explanation, ``best``, from its nearest rival, ``rival`` (hypothesis keys), by ``separation``
-    noise stds, and name one of the ``explanations`` (every key compared) with probability ``decides``
-    where one of them is the truth."""
+    """Measuring ``channel`` every ``every_s`` seconds with noise ``noise`` (or, ``channel`` None, a record
+    ``multiple`` times this one, of the channels it measures) would separate the first explanation, ``best``,
+    from its nearest rival, ``rival`` (hypothesis keys), by ``separation`` noise stds, and name one of the
+    ``explanations`` (every key compared) with probability ``decides`` where one of them is the truth."""
 
-    channel: str
-    every_s: float
-    noise: float
+    channel: str | None
+    every_s: float | None
+    noise: float | None
     separation: float
     best: str
     rival: str
     decides: float
     explanations: tuple[str, ...]
+    multiple: int = 1
 
     def describe(self) -> str:
-        return (
-            f"{self.channel} ({MEANING[self.channel]}) every {_interval(self.every_s)}, noise {self.noise:g}: "
-            f"{self.separation:.1f} noise stds from {self.rival}, a name with probability {self.decides:.2f}"
+        what = (
+            f"a record {self.multiple} times this one (more cells or hours of the channels it measures)"
+            if self.channel is None
+            else f"{self.channel} ({MEANING[self.channel]}) every {_interval(self.every_s)}, noise {self.noise:g}"
         )
+        return f"{what}: {self.separation:.1f} noise stds from {self.rival}, a name with probability {self.decides:.2f}"
+
+
+def separating(recommended: Sequence[Recommendation]) -> str:
+    """The verdict's words on what would separate a round's explanations: the top recommendation where it names
+    one with probability at least a half, else that none listed is likely to (nothing where none is listed)."""
+    if not recommended:
+        return ""
+    top = recommended[0]
+    if top.decides >= 0.5:
+        return f"; measuring {top.describe()} would separate them"
+    return f"; no measurement listed is likely to separate them (the likeliest: {top.describe()})"
 
 
 def _interval(seconds: float) -> str:
@@ -115,19 +138,22 @@ def measure_next(
 ) -> list[Recommendation]:
     """The ``top`` measurements most likely to name one of ``explanations`` (each a hypothesis key, its
     corrected model and its smoothed states (n, K, 8) on the record), best first, with the naming
-    ``margin`` [BIC]; empty where there is nothing to separate the first from."""
+    ``margin`` [BIC]; where no instrument is left to add, more of the same (:func:`_longer_record`); empty
+    where there is nothing to separate the first from."""
     if len(explanations) < 2:
         return []
+    keys = tuple(key for key, _, _ in explanations)
     measured = sampled_every(obs)
     if "U_pot" in measured:  # the pot voltage is the cell voltage plus known constants: the same record
         measured["U_cell"] = min(measured["U_pot"], measured.get("U_cell", np.inf))
-    channels = sorted({s.channel for s in available}, key=[s.channel for s in available].index)
+    addable = [s for s in available if measured.get(s.channel, np.inf) > s.every_s]
+    if not addable:
+        return [_longer_record(explanations, obs, margin)]
+    channels = sorted({s.channel for s in addable}, key=[s.channel for s in addable].index)
     with np.errstate(all="ignore"):
         values = [observe(model, x, obs.u, channels) for _, model, x in explanations]
     found = []
-    for sensor in available:
-        if measured.get(sensor.channel, np.inf) <= sensor.every_s:
-            continue
+    for sensor in addable:
         stride = max(1, round(sensor.every_s / obs.dt))
         c = channels.index(sensor.channel)
         sampled = [v[:, obs.settling_steps :: stride, c] / sensor.noise for v in values]
@@ -136,11 +162,31 @@ def measure_next(
         found.append(
             Recommendation(
                 channel=sensor.channel, every_s=sensor.every_s, noise=sensor.noise, separation=float(d[0, nearest]),
-                best=explanations[0][0], rival=explanations[nearest][0], decides=decides(d, margin),
-                explanations=tuple(key for key, _, _ in explanations),
+                best=keys[0], rival=keys[nearest], decides=decides(d, margin), explanations=keys,
             )
         )  # fmt: skip
     return _undominated(sorted(found, key=lambda r: (-r.decides, -r.separation, -r.every_s)))[:top]
+
+
+def _longer_record(
+    explanations: Sequence[tuple[str, CellModel, np.ndarray]], obs: Observations, margin: float
+) -> Recommendation:
+    """More of the same: the separation of ``explanations`` on the channels the record measures, at its own
+    samples after the filter settles (per cell, summed over the channels), and the smallest of :data:`MULTIPLES`
+    whose record would name one with probability at least a half (else the largest)."""
+    with np.errstate(all="ignore"):
+        values = [observe(model, x, obs.u, obs.channels) for _, model, x in explanations]
+    settled = obs.y[:, obs.settling_steps :]
+    sampled = [np.where(np.isfinite(settled), v[:, obs.settling_steps :] / obs.noise, np.nan) for v in values]
+    d = np.array([[_separation((a - b).reshape(len(a), -1)) for b in sampled] for a in sampled])
+    nearest = 1 + int(np.argmin(d[0, 1:]))
+    chances = [decides(d * np.sqrt(k), margin) for k in MULTIPLES]
+    k = next((i for i, chance in enumerate(chances) if chance >= 0.5), len(MULTIPLES) - 1)
+    keys = tuple(key for key, _, _ in explanations)
+    return Recommendation(
+        channel=None, every_s=None, noise=None, separation=float(d[0, nearest] * np.sqrt(MULTIPLES[k])), best=keys[0],
+        rival=keys[nearest], decides=chances[k], explanations=keys, multiple=MULTIPLES[k],
+    )  # fmt: skip
 
 
 def _undominated(ranked: Sequence[Recommendation]) -> list[Recommendation]:

@@ -79,7 +79,7 @@ from ...core.outcome import Decision
 from ...core.regression import GramSystem, coefficient_samples, independent_columns, selected_in_half, solve_subset
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, LoneCell, LostCell, explained_share, innovation_excess
-from ..measure_next import Recommendation, measure_next, to_separate
+from ..measure_next import Recommendation, measure_next, separating, to_separate
 from ..observations import Observations
 from ..rounds import (
     BudgetComparison,
@@ -930,7 +930,7 @@ def decide_round(
         if chained:
             listed = ", ".join(h.key for h in chained)
             what += f", and {listed}, through which alone it acts or which act alone through it, not fitted"
-        what += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
+        what += separating(recommended)
     elif decision is Decision.UNEXPLAINED:
         recommended = _next(to_separate(chosen, [], ranking), obs, margin)
         what = (

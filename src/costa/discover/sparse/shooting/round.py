@@ -50,7 +50,7 @@ from ...core.naming import alike, chain_rivals, explains_enough, removal, unfitt
 from ...core.outcome import Decision
 from ...core.settings import DiscoverySettings
 from ..innovations import ChannelTest, LoneCell, LostCell, explained_share, innovation_tests
-from ..measure_next import measure_next, to_separate
+from ..measure_next import measure_next, separating, to_separate
 from ..observations import Observations
 from ..observed import start_is_searched
 from ..rounds import HypothesisScore, SparseCandidate, SparseRound, channel_tests, round_tests
@@ -347,7 +347,7 @@ def _decided(model, screen: ShotScreen, fits: Sequence[ShotFit], obs: Observatio
             )
         if told is not None:
             verdict += f", and {told}"
-        verdict += f"; measuring {recommended[0].describe()} would separate them" if recommended else ""
+        verdict += separating(recommended)
         separated = recommended[0].channel if recommended else None
         return SparseRound(
             model=model, tests=tests, ranking=order, chosen=chosen, equivalent=equivalent, decision=decision, separated_by=separated, verdict=f"{verdict}; the correction {effect}",
