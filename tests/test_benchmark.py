@@ -257,7 +257,8 @@ def test_the_published_truth_listed_shares_are_a_dev_run():
     """The shares that calibrate a recommendation's chance of a right name (costa/discover/truth_listed.csv)
     come from dev seeds, so the closed loop on the test seeds judges them; each a count of rounds."""
     published = pd.read_csv(LISTED)
-    assert (published.split == "dev").all() and set(published.outcome) <= {"unexplained", "not identifiable"}
+    assert (published.split == "dev").all() and (published["size"] == "calibration").all()
+    assert set(published.outcome) <= {"unexplained", "not identifiable"}
     assert (published.listed <= published.rounds).all() and (published.rounds > 0).all()
     assert np.allclose(published.share, published.listed / published.rounds)
 
