@@ -71,7 +71,8 @@ def test_where_no_instrument_is_left_to_add_more_of_the_same_record_is_recommend
     """A record that dips the metal daily (15 kg noise) and may add nothing: one dip a cell after the filter
     settles sees the 30 kg difference, d^2 = 2 cells x 2^2 = 8 noise variances, short of the margin; twice the
     record gives 16, named with probability Phi((16 - 10) / (2 x 4)), the first multiple at a half or more.
-    Explanations the measured channels cannot tell apart get the largest multiple and no chance."""
+    Explanations the measured channels cannot tell apart get the largest multiple and no chance; those this
+    record already separates (a 1.5 kg dip) get nothing: what holds them level is not the margin."""
     explanations, u = two_explanations
     daily = Observations(y=_obs(u, ("x5",), (DAY,)).y, u=u, channels=("x5",), noise=np.array([15.0]), dt=10.0)
     (longer,) = measure_next(explanations, daily, MARGIN, available=())
@@ -81,6 +82,8 @@ def test_where_no_instrument_is_left_to_add_more_of_the_same_record_is_recommend
     same = [explanations[0], ("twin", *explanations[0][1:])]
     (never,) = measure_next(same, daily, MARGIN, available=())
     assert (never.multiple, never.decides, never.rival) == (MULTIPLES[-1], 0.0, "twin")
+    exact = Observations(y=daily.y, u=u, channels=("x5",), noise=np.array([1.5]), dt=10.0)  # d^2 = 800
+    assert measure_next(explanations, exact, MARGIN, available=()) == []  # held level by another rule, not the margin
     assert separating([longer]).startswith("; measuring a record 2 times this one") and separating([]) == ""
     assert separating([never]).startswith("; no measurement listed is likely to separate them (the likeliest: a record")
 

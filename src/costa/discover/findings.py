@@ -602,5 +602,7 @@ def _measure_next_lines(r: Mapping[str, Any]) -> list[str]:
         ]
         return lines
     if r.get("measure_next") == [] and r["flagged"] and not r["named"]:
-        return ["", "What to measure next: nothing to recommend; fewer than two explanations were fitted."]
+        return ["", "What to measure next: nothing to recommend; fewer than two explanations were fitted, or the "
+                    "channels this record measures, all as often as a pot line can, already separate them (what "
+                    "keeps the round undecided is in its verdict)."]  # fmt: skip
     return []

@@ -27,6 +27,8 @@ the recommendation is more of the same: the smallest multiple of the record (:da
 cells or hours of the channels it measures) whose samples would name one with probability at least a
 half, scored alike on the measured channels (d grows with the square root of the multiple), or the
 largest multiple and its chance, which then says that no practical record of these channels decides.
+None where the record itself already would: then its explanations are not held level by the margin but
+by another rule (the verdict says which), which more of the same does not lift.
 """
 
 from __future__ import annotations
@@ -148,7 +150,8 @@ def measure_next(
         measured["U_cell"] = min(measured["U_pot"], measured.get("U_cell", np.inf))
     addable = [s for s in available if measured.get(s.channel, np.inf) > s.every_s]
     if not addable:
-        return [_longer_record(explanations, obs, margin)]
+        longer = _longer_record(explanations, obs, margin)
+        return [longer] if longer is not None else []
     channels = sorted({s.channel for s in addable}, key=[s.channel for s in addable].index)
     with np.errstate(all="ignore"):
         values = [observe(model, x, obs.u, channels) for _, model, x in explanations]
@@ -170,15 +173,18 @@ def measure_next(
 
 def _longer_record(
     explanations: Sequence[tuple[str, CellModel, np.ndarray]], obs: Observations, margin: float
-) -> Recommendation:
+) -> Recommendation | None:
     """More of the same: the separation of ``explanations`` on the channels the record measures, at its own
     samples after the filter settles (per cell, summed over the channels), and the smallest of :data:`MULTIPLES`
-    whose record would name one with probability at least a half (else the largest)."""
+    whose record would name one with probability at least a half (else the largest); None where this record
+    already would."""
     with np.errstate(all="ignore"):
         values = [observe(model, x, obs.u, obs.channels) for _, model, x in explanations]
     settled = obs.y[:, obs.settling_steps :]
     sampled = [np.where(np.isfinite(settled), v[:, obs.settling_steps :] / obs.noise, np.nan) for v in values]
     d = np.array([[_separation((a - b).reshape(len(a), -1)) for b in sampled] for a in sampled])
+    if decides(d, margin) >= 0.5:
+        return None
     nearest = 1 + int(np.argmin(d[0, 1:]))
     chances = [decides(d * np.sqrt(k), margin) for k in MULTIPLES]
     k = next((i for i, chance in enumerate(chances) if chance >= 0.5), len(MULTIPLES) - 1)
