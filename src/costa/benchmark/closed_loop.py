@@ -4,8 +4,8 @@ A case whose findings end without a name gets its first round's top recommendati
 record (:func:`top_recommendation`) and is discovered again.  Each recommendation predicted two
 numbers (:mod:`costa.discover.sparse.measure_next`): the separation of the best explanation from its
 nearest rival, in noise stds, and the chance the added record names one; and, where the benchmark published
-how often the truth is among the explanations (:mod:`.truth_listed`), the chance of a right name.  :func:`loop_row` sets them
-beside what the run with the added channel achieved: the separation, read from how far the two
+how often the truth is among the explanations (:mod:`.truth_listed`), the chance of a right name.
+:func:`loop_row` sets them beside what the run with the added channel achieved: the separation, read from how far the two
 explanations' BIC gains moved apart (sqrt(|change of their BIC difference|), whose mean is the
 predicted d^2 where the prediction holds), and whether a name came and was right.
 """
@@ -101,8 +101,9 @@ def loop_markdown(summary: pd.DataFrame, table: pd.DataFrame, split: str) -> str
         "not identifiable), its first round's top "
         "recommendation added to its record and discovered again. Names predicted: the sum of each "
         "recommendation's chance of a name (right names: of a right name, that chance times the share of the "
-        "benchmark's dev rounds whose explanations held the truth; nan where none were published); separations in noise stds, the best explanation from its nearest "
-        "rival (achieved: from how far their BIC gains moved apart).",
+        "benchmark's dev rounds whose explanations held the truth; nan where none were published); separations "
+        "in noise stds, the best explanation from its nearest rival (achieved: from how far their BIC gains moved "
+        "apart).",
         "",
         "| sensors | undecided | measurement added | names predicted / given | right names predicted / gained (95 %) "
         "| wrong gained | separation predicted / achieved (medians) |",

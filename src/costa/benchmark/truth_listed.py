@@ -15,12 +15,10 @@ from typing import Any
 
 import pandas as pd
 
+from ..discover.rates import undecided_outcome
 from .score import wilson
 
-__all__ = ["OUTCOMES", "listed_rates", "recommending_rounds"]
-
-#: the outcomes of a round that recommends a measurement, as its verdict begins
-OUTCOMES = ("unexplained", "not identifiable")
+__all__ = ["listed_rates", "recommending_rounds"]
 
 
 def recommending_rounds(found: Mapping[str, Any], sensors: str) -> list[dict[str, Any]]:
@@ -32,9 +30,9 @@ def recommending_rounds(found: Mapping[str, Any], sensors: str) -> list[dict[str
             "case": found["case"],
             "sensors": sensors,
             "round": r["round"],
-            "outcome": next(o for o in OUTCOMES if r["verdict"].startswith(o)),
+            "outcome": undecided_outcome(r["verdict"]),
             "listed": bool(accepted & set(r["measure_next"][0]["explanations"])),
-        }  # fmt: skip
+        }
         for r in found["rounds"]
         if r.get("measure_next")
     ]

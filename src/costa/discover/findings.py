@@ -15,7 +15,7 @@ from .core.fitted_terms import KEEP_LEVEL
 from .core.hypotheses import candidate_hypotheses
 from .core.naming import fit_outcome, removal
 from .core.outcome import Outcome, Round
-from .rates import how_often_right, truth_listed
+from .rates import how_often_right, truth_listed, undecided_outcome
 from .sparse.innovations import LostCell, describe_lost
 
 #: the levels of the coefficient intervals reported; the last one decides which terms are kept
@@ -127,8 +127,7 @@ def _sparse_candidate(c, model) -> dict[str, Any]:
 def _recommendations(r: Round, records: str) -> list[dict[str, Any]]:
     """A sparse round's recommended measurements, each with its chance of a name and, where the benchmark's dev
     rounds of ``records`` and of the round's outcome were counted (:func:`.rates.truth_listed`), of a right name."""
-    outcome = "unexplained" if r.verdict.startswith("unexplained") else "not identifiable"
-    listed = truth_listed(records, outcome) if r.measure_next else None
+    listed = truth_listed(records, undecided_outcome(r.verdict)) if r.measure_next else None
     return [
         {
             "channel": m.channel,

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["LISTED", "PUBLISHED", "STRONG_SIGNAL", "how_often_right", "truth_listed"]
+__all__ = ["LISTED", "PUBLISHED", "STRONG_SIGNAL", "how_often_right", "truth_listed", "undecided_outcome"]
 
 PUBLISHED = Path(__file__).with_name("benchmark_rates.csv")
 LISTED = Path(__file__).with_name("truth_listed.csv")
@@ -44,6 +44,12 @@ def how_often_right(records: str, path: Path = PUBLISHED) -> list[str]:
         f"on the benchmark's {records} records ({int(r['cases'])} drawn cases of its test seeds, {r['size']} size), "
         f"{named}; effects above {STRONG_SIGNAL:g} noise units were named right in {strong}"
     ]
+
+
+def undecided_outcome(verdict: str) -> str:
+    """The outcome of a round that recommends a measurement, from its ``verdict``: unexplained or not identifiable
+    (the rows of ``truth_listed.csv``)."""
+    return "unexplained" if verdict.startswith("unexplained") else "not identifiable"
 
 
 def truth_listed(records: str, outcome: str, path: Path = LISTED) -> dict[str, float | int | str] | None:
