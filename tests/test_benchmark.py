@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -19,7 +20,7 @@ from costa.benchmark.score import (
     wilson,
 )
 from costa.benchmark.signal import signal
-from costa.benchmark.truth_listed import listed_rates, recommending_rounds
+from costa.benchmark.truth_listed import listed_rates, recommending_rounds, truth_listed_table
 from costa.compiled import CompiledModel
 from costa.config import ConfigError, check_consistency
 from costa.discover.cases.drawn import (
@@ -245,6 +246,10 @@ def test_the_truth_is_counted_among_a_recommendations_explanations_per_set_and_o
     assert table.loc["unexplained", ["rounds", "listed"]].tolist() == [3, 1]
     assert table.loc["not identifiable", ["rounds", "listed", "share"]].tolist() == [2, 2, 1.0]
     assert table.loc["unexplained", ["share_low", "share_high"]].tolist() == pytest.approx(wilson(1, 3))
+    paths = [tmp_path / f"run{i}.json" for i in range(len(runs))]
+    for path, found in zip(paths, runs, strict=True):
+        path.write_text(json.dumps(found))
+    pd.testing.assert_frame_equal(truth_listed_table(paths, ["plant"] * len(runs)), listed_rates(rows))
     published = tmp_path / "truth_listed.csv"
     listed_rates(rows).assign(split="dev", size="quick").to_csv(published, index=False)
     row = truth_listed("plant", "unexplained", published)

@@ -1,6 +1,5 @@
 """The benchmark's table, rates, recall curve, figure and page, from every drawn case's findings and signal."""
 
-import json
 from pathlib import Path
 
 import pandas as pd
@@ -17,7 +16,7 @@ from costa.benchmark.score import (
     strong_by_kind,
     strong_by_kind_markdown,
 )
-from costa.benchmark.truth_listed import listed_rates, recommending_rounds
+from costa.benchmark.truth_listed import truth_listed_table
 from costa.plots import plot_recall_by_signal, save
 
 runtime.configure(snakemake)
@@ -42,13 +41,8 @@ curve.to_csv(snakemake.output.curve, index=False)
 save(plot_recall_by_signal(curve, cases), snakemake.output.figure)
 by_kind = strong_by_kind(cases)
 by_kind.to_csv(snakemake.output.by_kind, index=False)
-recommending = [
-    row
-    for findings, sensors in zip(snakemake.input.findings, params.sensors, strict=True)
-    for row in recommending_rounds(json.loads(Path(findings).read_text()), sensors)
-]
-# a dev run's file is what the package publishes: the chances of a right name (docs/discovery.md)
-listed = listed_rates(pd.DataFrame(recommending, columns=["case", "sensors", "round", "outcome", "listed"]))
+# a dev run's (size: calibration) is what the package publishes: the chances of a right name (costa.discover.rates)
+listed = truth_listed_table(snakemake.input.findings, params.sensors)
 listed.assign(split=params.split, size=params.size).to_csv(snakemake.output.truth_listed, index=False)
 page = "# The discovery benchmark\n\n" + rates_markdown(table, params.split, params.size)
 page += "\n" + strong_by_kind_markdown(by_kind)

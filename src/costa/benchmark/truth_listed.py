@@ -10,7 +10,9 @@ interval.  A findings page multiplies each chance by this share of its records' 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -18,7 +20,10 @@ import pandas as pd
 from ..discover.rates import undecided_outcome
 from .score import wilson
 
-__all__ = ["listed_rates", "recommending_rounds"]
+__all__ = ["COLUMNS", "listed_rates", "recommending_rounds", "truth_listed_table"]
+
+#: a row of :func:`recommending_rounds`
+COLUMNS = ["case", "sensors", "round", "outcome", "listed"]
 
 
 def recommending_rounds(found: Mapping[str, Any], sensors: str) -> list[dict[str, Any]]:
@@ -48,3 +53,13 @@ def listed_rates(rounds: pd.DataFrame) -> pd.DataFrame:
         low, high = wilson(listed, len(group))
         rows.append([sensors, outcome, len(group), listed, listed / len(group), low, high])
     return pd.DataFrame(rows, columns=columns)
+
+
+def truth_listed_table(findings_paths: Sequence[str | Path], sensors: Sequence[str]) -> pd.DataFrame:
+    """:func:`listed_rates` over the runs whose findings are at ``findings_paths``, each under its sensor set."""
+    rows = [
+        row
+        for path, sensor_set in zip(findings_paths, sensors, strict=True)
+        for row in recommending_rounds(json.loads(Path(path).read_text()), sensor_set)
+    ]
+    return listed_rates(pd.DataFrame(rows, columns=COLUMNS))

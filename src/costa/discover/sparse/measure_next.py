@@ -150,7 +150,7 @@ def measure_next(
         measured["U_cell"] = min(measured["U_pot"], measured.get("U_cell", np.inf))
     addable = [s for s in available if measured.get(s.channel, np.inf) > s.every_s]
     if not addable:
-        longer = _longer_record(explanations, obs, margin)
+        longer = _longer_record(keys, [(model, x) for _, model, x in explanations], obs, margin)
         return [longer] if longer is not None else []
     channels = sorted({s.channel for s in addable}, key=[s.channel for s in addable].index)
     with np.errstate(all="ignore"):
@@ -172,14 +172,14 @@ def measure_next(
 
 
 def _longer_record(
-    explanations: Sequence[tuple[str, CellModel, np.ndarray]], obs: Observations, margin: float
+    keys: tuple[str, ...], explanations: Sequence[tuple[CellModel, np.ndarray]], obs: Observations, margin: float
 ) -> Recommendation | None:
-    """More of the same: the separation of ``explanations`` on the channels the record measures, at its own
+    """More of the same: the separation of ``explanations`` (the models and states of ``keys``) on the channels the record measures, at its own
     samples after the filter settles (per cell, summed over the channels), and the smallest of :data:`MULTIPLES`
     whose record would name one with probability at least a half (else the largest); None where this record
     already would."""
     with np.errstate(all="ignore"):
-        values = [observe(model, x, obs.u, obs.channels) for _, model, x in explanations]
+        values = [observe(model, x, obs.u, obs.channels) for model, x in explanations]
     settled = obs.y[:, obs.settling_steps :]
     sampled = [np.where(np.isfinite(settled), v[:, obs.settling_steps :] / obs.noise, np.nan) for v in values]
     d = np.array([[_separation((a - b).reshape(len(a), -1)) for b in sampled] for a in sampled])
@@ -188,7 +188,6 @@ def _longer_record(
     nearest = 1 + int(np.argmin(d[0, 1:]))
     chances = [decides(d * np.sqrt(k), margin) for k in MULTIPLES]
     k = next((i for i, chance in enumerate(chances) if chance >= 0.5), len(MULTIPLES) - 1)
-    keys = tuple(key for key, _, _ in explanations)
     return Recommendation(
         channel=None, every_s=None, noise=None, separation=float(d[0, nearest] * np.sqrt(MULTIPLES[k])), best=keys[0],
         rival=keys[nearest], decides=chances[k], explanations=keys, multiple=MULTIPLES[k],
